@@ -1,0 +1,5 @@
+"""Run every benchmark (``make bench``)."""
+from benchmarks import bench_plant
+
+if __name__ == "__main__":
+    bench_plant.main()

@@ -1,0 +1,95 @@
+"""Schemas and loaders for the vehicle and mission configs (``configs/vehicle``, ``configs/mission``).
+
+Ranges are physical plausibility bounds, wide enough for any small ROV and tight
+enough to catch a slipped unit or sign. See :mod:`bridge.configfile` for the
+error format.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from bridge.configfile import Field, load_config, resolve_config
+
+__all__ = ["VEHICLE_SCHEMA", "MISSION_SCHEMA", "load_vehicle_config", "load_mission_config"]
+
+_pos = dict(lo=0.0, lo_open=True)
+
+_THRUSTER_ITEM = {
+    "name": Field("str"),
+    "position": Field("floats", lo=-2.0, hi=2.0, length=3, doc="body FRD position (m)"),
+    "direction": Field("floats", lo=-1.0, hi=1.0, length=3, doc="positive-thrust direction, body FRD"),
+}
+
+VEHICLE_SCHEMA = {
+    "name": Field("str"),
+    "mass_properties": {
+        "W": Field("float", hi=1e5, **_pos, doc="weight (N)"),
+        "B": Field("float", hi=1e5, **_pos, doc="buoyancy (N)"),
+        "I_y": Field("float", hi=1e3, **_pos, doc="pitch inertia (kg m^2)"),
+        "r_G": Field("floats", lo=-1.0, hi=1.0, length=3),
+        "r_B": Field("floats", lo=-1.0, hi=1.0, length=3),
+        "length": Field("float", hi=10.0, **_pos, doc="body length L (m)"),
+    },
+    "added_mass": {
+        "X_udot": Field("float", lo=0.0, hi=1e3),
+        "Z_wdot": Field("float", lo=0.0, hi=1e3),
+        "M_qdot": Field("float", lo=0.0, hi=1e2),
+        "X_qdot": Field("float", lo=-1e2, hi=1e2),
+    },
+    "damping": {
+        "X_u": Field("float", lo=0.0, hi=1e4),
+        "Z_w": Field("float", lo=0.0, hi=1e4),
+        "M_q": Field("float", lo=0.0, hi=1e3),
+        "X_uu": Field("float", lo=0.0, hi=1e4),
+        "Z_ww": Field("float", lo=0.0, hi=1e4),
+        "M_qq": Field("float", lo=0.0, hi=1e3),
+    },
+    "thrusters": {
+        "thrust_max": Field("float", hi=500.0, **_pos, doc="controller cap per thruster (N)"),
+        "time_constant": Field("float", hi=5.0, **_pos, doc="first-order motor lag (s)"),
+        "pwm_min": Field("float", lo=800.0, hi=1500.0),
+        "pwm_max": Field("float", lo=1500.0, hi=2200.0),
+        "pwm_neutral": Field("float", lo=1400.0, hi=1600.0),
+        "curve": {
+            "pwm_us": Field("floats", lo=800.0, hi=2200.0, min_length=4),
+            "thrust_kgf": Field("floats", lo=-50.0, hi=50.0, min_length=4),
+        },
+        "layout": Field("list", length=8, item=_THRUSTER_ITEM),
+    },
+}
+
+MISSION_SCHEMA = {
+    "name": Field("str"),
+    "setpoint": {
+        "x": Field("float", lo=-1e4, hi=1e4, doc="north position (m)"),
+        "depth": Field("float", lo=0.5, hi=50.0, doc="depth below still water (m)"),
+        "pitch": Field("float", lo=-1.0, hi=1.0, doc="pitch (rad)"),
+    },
+    "duration": Field("float", hi=86400.0, **_pos, doc="mission length (s)"),
+    "control_rate": Field("float", lo=1.0, hi=1000.0, doc="control task rate (Hz)"),
+    "plant": {
+        "substeps": Field("int", lo=1, hi=100, doc="RK4 steps per control period"),
+        "strips": Field("int", lo=1, hi=64, doc="Gauss-Legendre strips for the Eq. 11 pitch integral"),
+    },
+}
+
+
+def load_vehicle_config(name_or_path: str | Path = "bluerov2_heavy") -> dict:
+    """Load and validate a vehicle config by name (``configs/vehicle/NAME.yaml``) or path."""
+    from bridge.configfile import ConfigError
+    path = resolve_config(name_or_path, "vehicle")
+    cfg = load_config(path, VEHICLE_SCHEMA)
+    th = cfg["thrusters"]
+    if len(th["curve"]["pwm_us"]) != len(th["curve"]["thrust_kgf"]):
+        raise ConfigError(path, "thrusters.curve.thrust_kgf", "must have as many values as thrusters.curve.pwm_us")
+    if not th["pwm_min"] < th["pwm_neutral"] < th["pwm_max"]:
+        raise ConfigError(path, "thrusters.pwm_neutral", "must lie strictly between pwm_min and pwm_max")
+    for i, t in enumerate(th["layout"]):
+        if sum(v * v for v in t["direction"]) < 1e-12:
+            raise ConfigError(path, f"thrusters.layout[{i}].direction", "must be a non-zero vector")
+    return cfg
+
+
+def load_mission_config(name_or_path: str | Path = "station_keeping") -> dict:
+    """Load and validate a mission config by name (``configs/mission/NAME.yaml``) or path."""
+    return load_config(resolve_config(name_or_path, "mission"), MISSION_SCHEMA)

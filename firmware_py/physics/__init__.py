@@ -1,0 +1,1 @@
+"""Physics shared by the firmware (nominal parameters) and the SITL world (true parameters)."""

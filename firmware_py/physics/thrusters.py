@@ -1,0 +1,127 @@
+"""Blue Robotics T200 thrusters and the BlueROV2 Heavy thruster layout.
+
+* :class:`T200Curve` — PWM (µs) ↔ steady-state thrust (N) at 16 V through the
+  published samples (REFERENCE §5): monotone cubic (PCHIP) interpolation, flat
+  zero in the dead band, asymmetric forward/reverse limits.
+* :class:`ThrusterLayout` — positions and positive-thrust directions in the body
+  FRD frame; the allocation matrix B (τ = B f) is derived from them as
+  [f; r × f], never typed in.
+* :func:`power_per_dof` — the paper's T200 power polynomial applied to |τ|.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import PchipInterpolator
+
+__all__ = ["KGF", "T200Curve", "ThrusterLayout", "power_per_dof", "WRENCH_AXES"]
+
+KGF = 9.80665
+"""Newtons per kilogram-force."""
+
+WRENCH_AXES = ("X", "Y", "Z", "K", "M", "N")
+"""Rows of the 6-DoF wrench matrix: forces along body x, y, z; moments about x, y, z."""
+
+
+class T200Curve:
+    """Steady-state T200 thrust as a function of PWM pulse width.
+
+    pwm_us and thrust_n are the published samples (µs, N), increasing in PWM,
+    with two zero-thrust samples bounding the dead band.
+    """
+
+    def __init__(self, pwm_us, thrust_n, pwm_min: float = 1100.0, pwm_max: float = 1900.0,
+                 pwm_neutral: float = 1500.0):
+        pwm = np.asarray(pwm_us, dtype=float)
+        f = np.asarray(thrust_n, dtype=float)
+        if pwm.shape != f.shape or pwm.size < 4:
+            raise ValueError("T200 curve needs matching PWM and thrust samples (at least 4)")
+        if np.any(np.diff(pwm) <= 0) or np.any(np.diff(f) < 0):
+            raise ValueError("T200 curve samples must increase with PWM")
+        zero = np.flatnonzero(f == 0.0)
+        if zero.size != 2 or zero[1] != zero[0] + 1:
+            raise ValueError("T200 curve needs exactly two zero-thrust samples bounding the dead band")
+        self.pwm_samples, self.thrust_samples = pwm, f
+        self.pwm_min, self.pwm_max, self.pwm_neutral = pwm_min, pwm_max, pwm_neutral
+        self.deadband = (pwm[zero[0]], pwm[zero[1]])
+        self._fwd = PchipInterpolator(pwm, f)
+        self.thrust_min, self.thrust_max = float(self._fwd(pwm_min)), float(self._fwd(pwm_max))
+        # Exact inverse of the forward curve on each strictly monotone branch (beyond the
+        # dead band), tabulated every 0.05 µs: thrust(pwm(f)) = f to ~1e-6 N.
+        lo, hi = self.deadband
+        self._rev_pwm = np.linspace(pwm_min, lo, int(round((lo - pwm_min) / 0.05)) + 1)
+        self._fwd_pwm = np.linspace(hi, pwm_max, int(round((pwm_max - hi) / 0.05)) + 1)
+        self._rev_f = self._fwd(self._rev_pwm)
+        self._fwd_f = self._fwd(self._fwd_pwm)
+
+    def thrust(self, pwm) -> np.ndarray:
+        """Thrust (N, positive along the thruster's direction) for PWM (µs), clipped to 1100–1900 µs."""
+        p = np.clip(np.asarray(pwm, dtype=float), self.pwm_min, self.pwm_max)
+        return self._fwd(p)
+
+    def pwm(self, thrust) -> np.ndarray:
+        """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
+        f = np.clip(np.asarray(thrust, dtype=float), self.thrust_min, self.thrust_max)
+        out = np.full(f.shape, self.pwm_neutral)
+        pos, neg = f > 0.0, f < 0.0
+        out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)
+        out[neg] = np.interp(f[neg], self._rev_f, self._rev_pwm)
+        return out if out.ndim else float(out)
+
+    @classmethod
+    def from_config(cls, cfg: dict) -> "T200Curve":
+        """From the ``thrusters`` section of a vehicle config (PWM µs and thrust in kgf)."""
+        curve = cfg["curve"]
+        return cls(curve["pwm_us"], np.asarray(curve["thrust_kgf"]) * KGF,
+                   cfg["pwm_min"], cfg["pwm_max"], cfg["pwm_neutral"])
+
+
+@dataclass(frozen=True)
+class ThrusterLayout:
+    """Thruster positions r_i (m) and unit thrust directions d_i in body FRD, one row each."""
+
+    positions: np.ndarray
+    directions: np.ndarray
+    names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        r = np.asarray(self.positions, dtype=float)
+        d = np.asarray(self.directions, dtype=float)
+        if r.shape != d.shape or r.ndim != 2 or r.shape[1] != 3:
+            raise ValueError("thruster positions and directions must both be (n, 3)")
+        norms = np.linalg.norm(d, axis=1)
+        if np.any(norms < 1e-9):
+            raise ValueError("a thruster direction is zero")
+        object.__setattr__(self, "positions", r)
+        object.__setattr__(self, "directions", d / norms[:, None])
+
+    @property
+    def n(self) -> int:
+        return self.positions.shape[0]
+
+    def wrench_matrix(self) -> np.ndarray:
+        """6×n matrix: unit thrust of each thruster → [X, Y, Z, K, M, N] about the body origin."""
+        f = self.directions
+        m = np.cross(self.positions, f)
+        return np.vstack([f.T, m.T])
+
+    def allocation_matrix(self) -> np.ndarray:
+        """3×n planar allocation B_μ: thrusts (N) → [X, Z, M] (surge, heave, pitch)."""
+        W = self.wrench_matrix()
+        return W[[0, 2, 4], :]
+
+    @classmethod
+    def from_config(cls, cfg: dict) -> "ThrusterLayout":
+        items = cfg["layout"]
+        return cls(np.array([t["position"] for t in items]), np.array([t["direction"] for t in items]),
+                   tuple(t["name"] for t in items))
+
+
+def power_per_dof(tau) -> np.ndarray:
+    """Electrical power (W) per DoF from the paper's T200 fit, P = 0.0011|τ|³ + 0.02078|τ|² + 0.297|τ|.
+
+    Applied element-wise to |τ| with τ in N (or N m for pitch, as the paper does).
+    """
+    a = np.abs(np.asarray(tau, dtype=float))
+    return ((0.0011 * a + 0.02078) * a + 0.297) * a
