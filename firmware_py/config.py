@@ -29,6 +29,7 @@ VEHICLE_SCHEMA = {
         "r_G": Field("floats", lo=-1.0, hi=1.0, length=3),
         "r_B": Field("floats", lo=-1.0, hi=1.0, length=3),
         "length": Field("float", hi=10.0, **_pos, doc="body length L (m)"),
+        "height": Field("float", hi=10.0, **_pos, doc="body height (m)"),
     },
     "added_mass": {
         "X_udot": Field("float", lo=0.0, hi=1e3),

@@ -3,13 +3,16 @@
 State: NED pose η = [x, z, θ], body velocities ν = [u, w, q] and the eight
 thrusters' actual thrusts f (N). The thrusters follow their PWM
 command through the T200 curve with a first-order lag (time constant t_m); the
-body moves under paper Eq. 2 with τ = B_μ f and the wave load τ_E of Eq. 11.
+body moves under paper Eq. 2 with τ = B_μ f, its damping and added-mass
+Coriolis forces taken on the velocity relative to the water and the fluid's
+inertia force of Eq. 11 (see :func:`~firmware_py.physics.vehicle.hydrodynamic_load`).
 
 Each control period is integrated with ``substeps`` classical RK4 steps; the
 motor lag is solved exactly over the period (the PWM is held constant). The
-wave load is sampled at the RK4 stage times (t, t + h/2, t + h) for the pose at
-the start of the step: within h ≤ 50 ms the vehicle moves millimetres against
-wavelengths of metres, and one batched evaluation replaces four.
+flow at the body's strips is sampled at the RK4 stage times (t, t + h/2, t + h)
+for the pose at the start of the step: within h ≤ 50 ms the vehicle moves
+millimetres against wavelengths of metres, and one batched evaluation serves
+all four stages.
 """
 from __future__ import annotations
 
@@ -19,7 +22,16 @@ import numpy as np
 
 from firmware_py.config import load_mission_config, load_vehicle_config
 from firmware_py.physics.thrusters import T200Curve, ThrusterLayout, power_per_dof
-from firmware_py.physics.vehicle import VehicleParams, nu_dot, state_rates, strip_nodes, wave_load
+from firmware_py.physics.vehicle import (
+    VehicleParams,
+    body_flow,
+    hydrodynamic_load,
+    motor_lag_stages,
+    rk4_step,
+    state_rates,
+    strip_nodes,
+    wave_load,
+)
 
 from .sea import Sea
 
@@ -74,13 +86,13 @@ class Plant:
         """Place the vehicle at pose η with velocity ν at time t, thrusters idle."""
         self.state = PlantState(float(t), np.zeros(3) if eta is None else np.array(eta, dtype=float),
                                 np.zeros(3) if nu is None else np.array(nu, dtype=float), np.zeros(8))
-        self.tau_E = self.wave_load(self.state.eta, self.state.t)
+        self.tau_E = self.wave_load(self.state.eta, self.state.nu, self.state.t)
         self.tau = np.zeros(3)
         self.nu_dot = np.zeros(3)
 
-    def wave_load(self, eta, t) -> np.ndarray:
-        """τ_E (paper Eq. 11) at pose(s) η and time(s) t."""
-        return wave_load(self.vehicle, self.sea.components, eta, t, self.strips)
+    def wave_load(self, eta, nu, t) -> np.ndarray:
+        """τ_E (paper Eq. 11, relative-velocity form) on the body at pose η moving with ν, at time(s) t."""
+        return wave_load(self.vehicle, self.sea.components, eta, nu, t, self.strips)
 
     def step(self, pwm, dt: float) -> PlantState:
         """Hold the eight PWM commands (µs) for dt seconds and advance the world.
@@ -100,27 +112,23 @@ class Plant:
             raise ValueError(f"dt must be positive, got {dt}")
         f_cmd = self.curve.thrust(pwm)
         s = self.state
-        eta, nu, f0, t = s.eta, s.nu, s.thrust, s.t
         h = dt / self.substeps
         stage = np.array([0.0, 0.5 * h, h])
-        tau_cmd, tau_gap = self.B @ f_cmd, self.B @ (f0 - f_cmd)
         p = self.vehicle
-        x = np.concatenate([eta, nu])
+        x = np.concatenate([s.eta, s.nu])
+        t = s.t
         for i in range(self.substeps):
-            lag = np.exp(-(i * h + stage) / self.t_m)
-            tau0, tau_half, tau1 = tau_cmd + np.outer(lag, tau_gap) + self.wave_load(x[:3], t + stage)
-            k1 = state_rates(p, x, tau0)
-            k2 = state_rates(p, x + (0.5 * h) * k1, tau_half)
-            k3 = state_rates(p, x + (0.5 * h) * k2, tau_half)
-            k4 = state_rates(p, x + h * k3, tau1)
-            x = x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+            tau_thr = motor_lag_stages(f_cmd, s.thrust, self.t_m, i * h + stage) @ self.B.T
+            flow = body_flow(self.sea.components, x[:3], t + stage, self.strips)
+            x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
-        eta, nu = x[:3], x[3:]
-        f = f_cmd + (f0 - f_cmd) * np.exp(-dt / self.t_m)
-        self.state = PlantState(t, eta, nu, f)
+        f = motor_lag_stages(f_cmd, s.thrust, self.t_m, [dt])[0]
+        self.state = PlantState(t, x[:3], x[3:], f)
         self.tau = self.B @ f
-        self.tau_E = tau1 - self.tau
-        self.nu_dot = nu_dot(p, eta, nu, tau1)
+        end = flow.stage(2)
+        u, w, q = x[3:].tolist()
+        self.tau_E = np.array(hydrodynamic_load(p, u, w, q, end)) - np.array(hydrodynamic_load(p, u, w, q, None))
+        self.nu_dot = state_rates(p, x, self.tau, end)[3:]
         return self.state
 
     def power_per_dof(self) -> np.ndarray:

@@ -31,8 +31,14 @@ __all__ = [
     "restoring_forces",
     "coriolis_forces",
     "nu_dot",
+    "rk4_step",
+    "motor_lag_stages",
     "state_rates",
     "strip_nodes",
+    "submerged_fraction",
+    "BodyFlow",
+    "body_flow",
+    "hydrodynamic_load",
     "wave_load",
 ]
 
@@ -47,6 +53,7 @@ class VehicleParams:
     r_G: np.ndarray          # centre of gravity in body FRD (m)
     r_B: np.ndarray          # centre of buoyancy in body FRD (m); z < 0 is above the CG
     length: float            # body length L (m), for the strip integral of Eq. 11
+    height: float            # body height (m): buoyancy fades out over it when the vehicle breaches
     X_udot: float            # added mass (kg)
     Z_wdot: float            # added mass (kg)
     M_qdot: float            # added inertia (kg m²)
@@ -77,11 +84,8 @@ class VehicleParams:
         object.__setattr__(self, "M", M)
         object.__setattr__(self, "M_inv", np.linalg.inv(M))
         # Float copies for the scalar hot path (state_rates)
-        object.__setattr__(self, "_M_rows", tuple(map(tuple, M.tolist())))
+        object.__setattr__(self, "_M_RB_rows", tuple(map(tuple, M_RB.tolist())))
         object.__setattr__(self, "_M_inv_rows", tuple(map(tuple, np.linalg.inv(M).tolist())))
-        r_G, r_B = np.asarray(self.r_G, dtype=float), np.asarray(self.r_B, dtype=float)
-        object.__setattr__(self, "_BG_z", float(r_G[2] * self.W - r_B[2] * self.B))
-        object.__setattr__(self, "_BG_x", float(r_G[0] * self.W - r_B[0] * self.B))
 
     @property
     def mass(self) -> float:
@@ -105,7 +109,7 @@ class VehicleParams:
         """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`firmware_py.config`)."""
         mp, am, dp = cfg["mass_properties"], cfg["added_mass"], cfg["damping"]
         return cls(W=mp["W"], B=mp["B"], I_y=mp["I_y"], r_G=np.array(mp["r_G"]), r_B=np.array(mp["r_B"]),
-                   length=mp["length"], X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
+                   length=mp["length"], height=mp["height"], X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
                    X_qdot=am["X_qdot"], X_u=dp["X_u"], Z_w=dp["Z_w"], M_q=dp["M_q"], X_uu=dp["X_uu"],
                    Z_ww=dp["Z_ww"], M_qq=dp["M_qq"])
 
@@ -140,10 +144,20 @@ def damping_matrix(p: VehicleParams, nu: np.ndarray) -> np.ndarray:
     return np.diag([p.X_u + p.X_uu * a[0], p.Z_w + p.Z_ww * a[1], p.M_q + p.M_qq * a[2]])
 
 
+def submerged_fraction(p: VehicleParams, depth: float) -> float:
+    """Fraction of the buoyancy acting at a depth (m) of the origin: 1 when fully submerged,
+    falling linearly to 0 as the body (height ``p.height``) rises through the still surface."""
+    return min(1.0, max(0.0, depth / p.height + 0.5))
+
+
 def restoring_forces(p: VehicleParams, eta: np.ndarray) -> np.ndarray:
-    """g(η): hydrostatic restoring forces in the body frame (Fossen 2011, Eq. 4.6, φ = 0)."""
+    """g(η): hydrostatic restoring forces in the body frame (Fossen 2011, Eq. 4.6, φ = 0).
+
+    Buoyancy is scaled by :func:`submerged_fraction` so a vehicle that reaches
+    the surface floats there instead of flying out of the water.
+    """
     s, c = math.sin(eta[2]), math.cos(eta[2])
-    W, B = p.W, p.B
+    W, B = p.W, p.B * submerged_fraction(p, eta[1])
     return np.array([
         (W - B) * s,
         -(W - B) * c,
@@ -160,26 +174,140 @@ def coriolis_forces(p: VehicleParams, nu) -> np.ndarray:
     return np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
 
 
-def state_rates(p: VehicleParams, x, tau) -> np.ndarray:
-    """ẋ for x = [η, ν] = [x, z, θ, u, w, q] under the total load τ (control + wave), paper Eq. 2.
+@dataclass(frozen=True)
+class BodyFlow:
+    """Fluid velocity and local acceleration at the body's strips, body frame, at T instants.
 
-    η̇ = J(η) ν and ν̇ = M⁻¹ (τ − C(ν)ν − D(ν)ν − g(η)), written out in scalars:
-    this is the innermost call of the plant's RK4 and of the estimator's
-    prediction, and 3-vectors cost more as arrays than as floats.
+    xs, wts: strip positions x' (m) and quadrature weights (sum 1); u, w (m/s)
+    and ax, az (m/s²) have shape (T, S). Built by :func:`body_flow`.
     """
-    _, _, th, u, w, q = x.tolist() if isinstance(x, np.ndarray) else x
+
+    xs: np.ndarray
+    wts: np.ndarray
+    u: np.ndarray
+    w: np.ndarray
+    ax: np.ndarray
+    az: np.ndarray
+
+    def stage(self, i: int) -> tuple:
+        """The flow at instant i as plain float lists (the scalar hot path's input)."""
+        return (self._xs, self._wts, self.u[i].tolist(), self.w[i].tolist(), self.ax[i].tolist(), self.az[i].tolist())
+
+    @property
+    def _xs(self) -> list:
+        return self.xs.tolist()
+
+    @property
+    def _wts(self) -> list:
+        return self.wts.tolist()
+
+
+def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
+    """The sea's flow at the strips of a body at pose η = [x, z, θ], at time(s) t.
+
+    Each strip at body position x' sits at earth (x + x' cos θ, z − x' sin θ);
+    its NED velocity and acceleration are rotated into the body frame by R_y(θ)ᵀ.
+    """
+    xs, wts = strips
+    th = float(eta[2])
+    c, s = math.cos(th), math.sin(th)
+    tt = np.atleast_1d(np.asarray(t, dtype=float))
+    # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
+    depth = np.maximum(eta[1] - xs * s, 0.0)
+    u, w, ud, wd = particle_kinematics_grid(waves, eta[0] + xs * c, depth, tt)   # (T, S)
+    return BodyFlow(xs, wts, c * u - s * w, s * u + c * w, c * ud - s * wd, s * ud + c * wd)
+
+
+def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tuple | None = None):
+    """Hydrodynamic force on the moving body (N, N, N m), excluding −M_A ν̇.
+
+    The relative-velocity Morison strip model (Fossen 2011 §10.3, equations of
+    relative motion, with the fluid's inertia force of paper Eq. 11). Per unit
+    length at strip x', with ν_r = ν − ν_p(x'):
+
+        X' = X_u̇ u̇_p − (X_u + X_u|u| |u_r|) u_r,   Z' = Z_ẇ ẇ_p − (Z_w + Z_w|w| |w_r|) w_r
+
+    integrated over the length for X and Z, with the pitch moment −∫ Z' x' dx';
+    plus the added-mass Coriolis force −C_A(ν̄_r) ν̄_r on the mean relative
+    velocity (Munk moment) and the rotational damping −(M_q + M_q|q| |q|) q.
+    ``flow`` is a :meth:`BodyFlow.stage` tuple, or None for still water, where
+    this is exactly −C_A(ν)ν − D(ν)ν of paper Eq. 2; for a body at rest it is
+    the wave load τ_E of Eq. 11 (plus the flow's Munk moment).
+    """
+    if flow is None:
+        ur, wr = u, w
+        X = -(p.X_u + p.X_uu * abs(u)) * u
+        Z = -(p.Z_w + p.Z_ww * abs(w)) * w
+        Mh = 0.0
+    else:
+        xs, wts, up, wp, ax, az = flow
+        X = Z = Mh = ub = wb = 0.0
+        for xj, wj, upj, wpj, axj, azj in zip(xs, wts, up, wp, ax, az):
+            urj, wrj = u - upj, w - wpj
+            fz = p.Z_wdot * azj - (p.Z_w + p.Z_ww * abs(wrj)) * wrj
+            X += wj * (p.X_udot * axj - (p.X_u + p.X_uu * abs(urj)) * urj)
+            Z += wj * fz
+            Mh -= wj * xj * fz
+            ub += wj * upj
+            wb += wj * wpj
+        ur, wr = u - ub, w - wb
+    pAx, pAz = p.X_udot * ur + p.X_qdot * q, p.Z_wdot * wr     # added-mass momenta of the relative motion
+    X -= pAz * q
+    Z += pAx * q
+    Mh += pAz * ur - pAx * wr - (p.M_q + p.M_qq * abs(q)) * q
+    return X, Z, Mh
+
+
+def state_rates(p: VehicleParams, x, tau, flow: tuple | None = None) -> np.ndarray:
+    """ẋ for x = [η, ν] = [x, z, θ, u, w, q] under the thruster load τ in the flow — paper Eq. 2.
+
+    η̇ = J(η) ν and ν̇ = M⁻¹ (τ + F_h(ν, flow) − C_RB(ν)ν − g(η)), with F_h the
+    :func:`hydrodynamic_load`. Written out in scalars: this is the innermost
+    call of the plant's RK4 and of the estimator's prediction.
+    """
+    _, z, th, u, w, q = x.tolist() if isinstance(x, np.ndarray) else x
     X, Z, Mt = tau.tolist() if isinstance(tau, np.ndarray) else tau
     c, s = math.cos(th), math.sin(th)
-    (m00, _, m02), (_, m11, m12), _ = p._M_rows
-    p_x, p_z = m00 * u + m02 * q, m11 * w + m12 * q          # momenta for C(ν)ν
-    WB = p.W - p.B
-    r0 = X - p_z * q - (p.X_u + p.X_uu * abs(u)) * u - WB * s
-    r1 = Z + p_x * q - (p.Z_w + p.Z_ww * abs(w)) * w + WB * c
-    r2 = (Mt + p_z * u - p_x * w - (p.M_q + p.M_qq * abs(q)) * q
-          - p._BG_z * s - p._BG_x * c)
+    (m00, _, m02), (_, m11, m12), _ = p._M_RB_rows
+    p_x, p_z = m00 * u + m02 * q, m11 * w + m12 * q          # rigid-body momenta for C_RB(ν)ν
+    Xh, Zh, Mh = hydrodynamic_load(p, u, w, q, flow)
+    B = p.B if z >= 0.5 * p.height else p.B * submerged_fraction(p, z)
+    WB = p.W - B
+    BG_z = p.r_G[2] * p.W - p.r_B[2] * B
+    BG_x = p.r_G[0] * p.W - p.r_B[0] * B
+    r0 = X + Xh - p_z * q - WB * s
+    r1 = Z + Zh + p_x * q + WB * c
+    r2 = Mt + Mh + p_z * u - p_x * w - BG_z * s - BG_x * c
     (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = p._M_inv_rows
     return np.array([c * u + s * w, -s * u + c * w, q,
                      a0 * r0 + a1 * r1 + a2 * r2, b0 * r0 + b1 * r1 + b2 * r2, c0 * r0 + c1 * r1 + c2 * r2])
+
+
+def rk4_step(p: VehicleParams, x: np.ndarray, h: float, tau_stages, flow: BodyFlow | None = None) -> np.ndarray:
+    """One classical RK4 step of :func:`state_rates` over h seconds.
+
+    ``tau_stages`` holds the thruster load τ at the stage times t, t + h/2 and
+    t + h (three rows) and ``flow`` the fluid at the strips at those instants
+    (None: still water), so loads known in closed form (motor lag) or sampled
+    in one batch (waves) cost nothing extra per stage. Used by the plant (true
+    parameters and sea) and the estimator's prediction (nominal parameters, forecast).
+    """
+    tau0, tau_half, tau1 = tau_stages
+    f0, fh, f1 = (None, None, None) if flow is None else (flow.stage(0), flow.stage(1), flow.stage(2))
+    k1 = state_rates(p, x, tau0, f0)
+    k2 = state_rates(p, x + (0.5 * h) * k1, tau_half, fh)
+    k3 = state_rates(p, x + (0.5 * h) * k2, tau_half, fh)
+    k4 = state_rates(p, x + h * k3, tau1, f1)
+    return x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+def motor_lag_stages(f_cmd: np.ndarray, f0: np.ndarray, t_m: float, offsets) -> np.ndarray:
+    """Thrust of first-order motors at time offsets s after a command step: f_cmd + (f₀ − f_cmd) e^{−s/t_m}.
+
+    ``offsets`` (S,) in s; returns (S, n) thrusts (N).
+    """
+    lag = np.exp(-np.asarray(offsets, dtype=float) / t_m)
+    return f_cmd + np.outer(lag, f0 - f_cmd)
 
 
 def nu_dot(p: VehicleParams, eta, nu, tau) -> np.ndarray:
@@ -193,30 +321,19 @@ def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * length * xi, 0.5 * wts
 
 
-def wave_load(p: VehicleParams, waves: WaveComponents, eta: np.ndarray, t, strips: tuple[np.ndarray, np.ndarray]):
-    """Wave-induced load τ_E = [X_E, Z_E, M_E] (N, N, N m) on the body — paper Eq. 11.
+def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple[np.ndarray, np.ndarray]):
+    """The wave-induced load τ_E (N, N, N m) on a body at pose η moving with ν — paper Eq. 11, generalised.
 
-    Each strip at body position x' feels the fluid velocity ν_p and local
-    acceleration ν̇_p at its own earth position, rotated into the body frame
-    by R_y(θ)ᵀ. The load per unit length is (M_A,ii ν̇_p + (D_L,ii + D_Q,ii |ν_p|) ν_p)/L
-    for surge and heave; X_E and Z_E integrate it over the length, and the pitch
-    moment integrates the heave load's moment arm, M_E = −∫ Z_E'(x') x' dx'
-    (a downward force ahead of the origin pitches the nose down; the paper
-    prints the integral without the sign of r × F).
-
-    ``eta`` is one pose [x, z, θ]; ``t`` a time (s) or an array of T times, giving
-    a (3,) or (T, 3) result. The strip integral is Gauss–Legendre quadrature
-    (:func:`strip_nodes`).
+    τ_E = F_h(ν, flow) − F_h(ν, still water) with F_h the :func:`hydrodynamic_load`:
+    everything the waves add to the forces of Eq. 2. For ν = 0 it is Eq. 11
+    strip by strip, M_A ν̇_p + (D_L + D_Q|ν_p|) ν_p for surge and heave and
+    M_E = −∫ Z_E′(x′) x′ dx′ for pitch (the sign of r × F: a downward load ahead
+    of the centre pitches the nose down; the paper prints it without), plus
+    the Munk moment of the flow. ``t`` is a time or an array of T times
+    (result (3,) or (T, 3)).
     """
-    xs, wts = strips
-    th = float(eta[2])
-    c, s = np.cos(th), np.sin(th)
-    tt = np.atleast_1d(np.asarray(t, dtype=float))
-    u, w, ud, wd = particle_kinematics_grid(waves, eta[0] + xs * c, eta[1] - xs * s, tt)   # (T, strips)
-    # NED → body: [u_b, w_b] = R_y(θ)ᵀ [u_n, w_n]
-    ub, wb = c * u - s * w, s * u + c * w
-    aub, awb = c * ud - s * wd, s * ud + c * wd
-    fx = p.X_udot * aub + (p.X_u + p.X_uu * np.abs(ub)) * ub
-    fz = p.Z_wdot * awb + (p.Z_w + p.Z_ww * np.abs(wb)) * wb
-    out = np.stack([fx @ wts, fz @ wts, -(fz @ (wts * xs))], axis=-1)
+    flow = body_flow(waves, eta, t, strips)
+    u, w, q = (float(v) for v in nu)
+    still = np.array(hydrodynamic_load(p, u, w, q, None))
+    out = np.array([np.array(hydrodynamic_load(p, u, w, q, flow.stage(i))) - still for i in range(flow.u.shape[0])])
     return out if np.ndim(t) else out[0]

@@ -1,0 +1,77 @@
+"""Station-keeping controller: cascaded PD (C-PD) with wave feed-forward — paper Eq. 12.
+
+Structure, after the authors' implementation (REFERENCE §7):
+
+* the position error e = R(θ)ᵀ (η_r − η̂) is taken in the body frame for surge
+  and heave (pitch error as is);
+* outer loop: velocity demand ν_d = sat(K_p e + K_d ė, ν_max), ė the error's
+  rate over the last period;
+* inner loop: normalised effort u = K_pv (ν_d − ν̂);
+* hydrostatic compensation (``WK_G_COMP``): u += τ_g / τ_max with the nominal
+  net-buoyancy force at the estimated pitch and the restoring moment at the
+  setpoint pitch, so the vehicle's 2 N of buoyancy and a non-zero pitch
+  setpoint leave no steady-state error, while the natural pitch stiffness
+  about the setpoint is kept (the paper's C-PD has no integral term and none
+  of this; ArduSub integrates instead);
+* feed-forward (C-PD+FF): u += g_ff · τ_FF / τ_max with τ_FF = −τ̂_E, the
+  predicted wave load negated (the paper prints the inertia term with the
+  wrong sign; DESIGN "Frames and signs");
+* τ = τ_max · sat(u, 1).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .params import ParameterTable
+from .physics.vehicle import VehicleParams, restoring_forces
+
+__all__ = ["ControlOutput", "StationKeepingController"]
+
+
+@dataclass(frozen=True)
+class ControlOutput:
+    """Body-frame wrenches [X (N), Z (N), M (N m)]."""
+
+    tau: np.ndarray        # the saturated total command
+    tau_pd: np.ndarray     # the C-PD part (τ_max · u_pd, before saturation)
+    tau_ff: np.ndarray     # the feed-forward part as applied (g_ff · τ_FF)
+    velocity_demand: np.ndarray
+    error_body: np.ndarray
+    saturated: bool
+
+
+class StationKeepingController:
+    def __init__(self, params: ParameterTable, vehicle: VehicleParams):
+        self.params = params
+        self.vehicle = vehicle
+        self._prev_error: np.ndarray | None = None
+
+    def reset(self) -> None:
+        self._prev_error = None
+
+    def update(self, x_hat: np.ndarray, setpoint: np.ndarray, tau_ff: np.ndarray | None, dt: float) -> ControlOutput:
+        """One control step from the estimate x̂ = [x, z, θ, u, w, q] to the setpoint [x, z, θ]."""
+        p = self.params
+        eta, nu = x_hat[:3], x_hat[3:]
+        e_n = np.asarray(setpoint, dtype=float) - eta
+        c, s = math.cos(eta[2]), math.sin(eta[2])
+        e = np.array([c * e_n[0] - s * e_n[1], s * e_n[0] + c * e_n[1], e_n[2]])
+        de = np.zeros(3) if self._prev_error is None else (e - self._prev_error) / dt
+        self._prev_error = e
+        kp, kd = np.array(p.axes("WK_PD_KP")), np.array(p.axes("WK_PD_KD"))
+        vmax = np.array(p.axes("WK_VEL_MAX"))
+        v_d = np.clip(kp * e + kd * de, -vmax, vmax)
+        u_pd = np.array(p.axes("WK_VEL_KP")) * (v_d - nu)
+        tau_max = np.array(p.axes("WK_TAU_MAX"))
+        ff = np.zeros(3) if tau_ff is None else p["WK_FF_GAIN"] * np.asarray(tau_ff, dtype=float)
+        u = u_pd + ff / tau_max
+        if p["WK_G_COMP"]:
+            g_est = restoring_forces(self.vehicle, eta)
+            g_ref = restoring_forces(self.vehicle, np.asarray(setpoint, dtype=float))
+            u = u + np.array([g_est[0], g_est[1], g_ref[2]]) / tau_max
+        u_sat = np.clip(u, -1.0, 1.0)
+        return ControlOutput(tau=tau_max * u_sat, tau_pd=tau_max * u_pd, tau_ff=ff, velocity_demand=v_d,
+                             error_body=e, saturated=bool(np.any(u_sat != u)))

@@ -1,0 +1,68 @@
+"""The hardware abstraction layer: what the firmware needs from the vehicle.
+
+``read_sensors()`` → :class:`~firmware_py.sensors.SensorFrame`,
+``write_pwm(pwm)`` with eight thruster pulse widths (µs, ArduSub motor order),
+and ``clock`` (a :class:`~firmware_py.scheduler.Clock`).
+
+:class:`InProcessSITLHAL` calls straight into a simulated plant in the same
+process for fast batch runs; it is duck-typed (any object with ``state.t``,
+``state.eta``, ``state.nu`` and ``step(pwm, dt)``), so the firmware never imports
+the simulator. The networked backend (ArduPilot JSON SITL over UDP) is a
+drop-in replacement.
+"""
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Protocol
+
+import numpy as np
+
+from .params import ParameterTable
+from .scheduler import Clock, SimClock
+from .sensors import SensorFrame, SimulatedSensors
+
+__all__ = ["HAL", "PlantLike", "InProcessSITLHAL", "PWM_CHANNELS"]
+
+PWM_CHANNELS = 8
+
+
+class HAL(ABC):
+    clock: Clock
+
+    @abstractmethod
+    def read_sensors(self) -> SensorFrame:
+        """The newest sensor readings (non-blocking beyond the current tick)."""
+
+    @abstractmethod
+    def write_pwm(self, pwm: np.ndarray) -> None:
+        """Output eight thruster pulse widths (µs)."""
+
+
+class PlantLike(Protocol):
+    state: object
+
+    def step(self, pwm, dt: float) -> object: ...
+
+
+class InProcessSITLHAL(HAL):
+    """Lockstep in-process SITL: each ``write_pwm`` holds the command for one period and advances the plant.
+
+    The clock is a :class:`SimClock` that the scheduler moves from slot to slot;
+    the plant's time and the clock agree at every slot.
+    """
+
+    def __init__(self, plant: PlantLike, params: ParameterTable, period_s: float, sensor_seed: int):
+        self.plant = plant
+        self.period_s = float(period_s)
+        self.clock = SimClock(start_ns=int(round(plant.state.t * 1e9)))
+        self.sensors = SimulatedSensors(params, sensor_seed)
+        self.last_pwm = np.full(PWM_CHANNELS, 1500, dtype=np.int64)
+
+    def read_sensors(self) -> SensorFrame:
+        s = self.plant.state
+        return self.sensors.read(s.t, s.eta, s.nu)
+
+    def write_pwm(self, pwm: np.ndarray) -> None:
+        pwm = np.asarray(pwm)
+        self.last_pwm = pwm.copy()
+        self.plant.step(pwm.astype(float), self.period_s)

@@ -1,0 +1,182 @@
+"""The parameter table: the one place a tunable lives (ArduPilot's AP_Param, in miniature).
+
+Every gain, noise level and limit of the firmware is a named parameter of at
+most 16 characters (MAVLink's PARAM_VALUE limit). :data:`PARAM_DEFS` defines
+each one — name, range, units, meaning — and ``configs/firmware/params.yaml``
+gives every default. Values are read and set at runtime through
+:class:`ParameterTable`; a set outside the range, or NaN, is refused and the old
+value kept, as ArduPilot's parameter protocol expects.
+
+Simulated-sensor parameters carry ArduPilot's ``SIM_`` prefix: they describe
+the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable
+
+from bridge.configfile import ConfigError, load_config, resolve_config
+
+__all__ = ["ParamDef", "PARAM_DEFS", "ParameterTable", "load_params"]
+
+
+@dataclass(frozen=True)
+class ParamDef:
+    """Definition of one parameter: name (≤ 16 chars), inclusive range, units, meaning."""
+
+    name: str
+    lo: float
+    hi: float
+    units: str
+    doc: str
+    integer: bool = False
+
+    def __post_init__(self) -> None:
+        if not (1 <= len(self.name) <= 16) or self.name.upper() != self.name:
+            raise ValueError(f"parameter name {self.name!r} must be 1-16 upper-case characters")
+        if not self.lo <= self.hi:
+            raise ValueError(f"parameter {self.name}: empty range [{self.lo}, {self.hi}]")
+
+    def check(self, value: float) -> str | None:
+        """Why ``value`` is not allowed, or None."""
+        if isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, (int, float)) or not math.isfinite(value):
+            return f"got {value!r}; allowed: a finite number in [{self.lo:g}, {self.hi:g}]"
+        if self.integer and not float(value).is_integer():
+            return f"got {value!r}; allowed: an integer in [{self.lo:g}, {self.hi:g}]"
+        if not self.lo <= value <= self.hi:
+            return f"got {value!r}; allowed: [{self.lo:g}, {self.hi:g}] {self.units}".rstrip()
+        return None
+
+
+def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: str) -> list[ParamDef]:
+    """One parameter per DoF: _X surge, _Z heave, _P pitch."""
+    return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
+            for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units)]
+
+
+PARAM_DEFS: tuple[ParamDef, ...] = tuple([
+    # Cascaded PD (paper Eq. 12): outer position loop → velocity demand, inner velocity loop → τ/τ_max
+    *_axes("WK_PD_KP", 0.0, 20.0, ("1/s", "1/s", "1/s"), "position P gain: velocity demand per unit error"),
+    *_axes("WK_PD_KD", 0.0, 20.0, ("", "", ""), "position D gain: velocity demand per unit error rate"),
+    *_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/m", "s/rad"), "velocity P gain: normalised effort per unit velocity error"),
+    *_axes("WK_VEL_MAX", 0.01, 5.0, ("m/s", "m/s", "rad/s"), "velocity demand limit"),
+    *_axes("WK_TAU_MAX", 0.1, 1000.0, ("N", "N", "N m"), "maximum control effort τ_max"),
+    ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", integer=True),
+    ParamDef("WK_FF_ENABLE", 0, 1, "", "feed-forward wave compensation on (1) or off (0)", integer=True),
+    ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
+    # Motors and mixer
+    ParamDef("WK_THR_MAX", 1.0, 60.0, "N", "per-thruster thrust limit used by the allocation"),
+    ParamDef("WK_MOT_TC", 0.001, 2.0, "s", "nominal first-order motor time constant"),
+    ParamDef("WK_MOT_COMP", 0, 1, "", "motor-lag compensation (paper Eq. 13) on (1) or off (0)", integer=True),
+    # Estimator
+    ParamDef("WK_EKF_Q_POS", 0.0, 10.0, "m/s^0.5", "process noise density on x and z"),
+    ParamDef("WK_EKF_Q_ANG", 0.0, 10.0, "rad/s^0.5", "process noise density on pitch"),
+    ParamDef("WK_EKF_Q_VEL", 0.0, 100.0, "m/s^1.5", "process noise density on u and w (unmodelled forces)"),
+    ParamDef("WK_EKF_Q_RATE", 0.0, 100.0, "rad/s^1.5", "process noise density on q"),
+    ParamDef("WK_EKF_R_POS", 1e-4, 10.0, "m", "position fix noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_R_DEPTH", 1e-4, 10.0, "m", "depth noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_R_PITCH", 1e-5, 1.0, "rad", "pitch noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_R_GYRO", 1e-5, 1.0, "rad/s", "pitch-rate noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_GATE", 1.0, 100.0, "sigma", "innovation gate: reject a measurement beyond this many sigma"),
+    ParamDef("WK_EKF_RST_T", 0.05, 60.0, "s", "reset a channel to its measurement after this long all-rejected"),
+    ParamDef("WK_EKF_CONV", 1e-4, 10.0, "m", "converged when position 1-sigma is below this"),
+    # Simulated sensors (SITL HAL)
+    ParamDef("SIM_POS_RND", 0.0, 10.0, "m", "position fix noise (1 sigma), e.g. an acoustic positioning system"),
+    ParamDef("SIM_POS_RATE", 0.1, 100.0, "Hz", "position fix rate"),
+    ParamDef("SIM_DEPTH_RND", 0.0, 1.0, "m", "pressure-depth noise (1 sigma), Bar30-like"),
+    ParamDef("SIM_PITCH_RND", 0.0, 0.5, "rad", "AHRS pitch noise (1 sigma)"),
+    ParamDef("SIM_GYRO_RND", 0.0, 0.5, "rad/s", "gyro pitch-rate noise (1 sigma)"),
+])
+
+
+class ParameterTable:
+    """Named values with ranges; ArduPilot parameter semantics.
+
+    ``table["WK_PD_KP_X"]`` reads, :meth:`set` writes with a range check.
+    ``version`` increases on every accepted change, so a consumer can cache
+    derived values and refresh only when it moves.
+    """
+
+    def __init__(self, defs: Iterable[ParamDef], values: dict[str, float]):
+        self._defs = {d.name: d for d in defs}
+        self._order = list(self._defs)
+        missing = [n for n in self._order if n not in values]
+        if missing:
+            raise KeyError(f"no value for parameter(s): {', '.join(missing)}")
+        self._values: dict[str, float] = {}
+        for name in self._order:
+            why = self._defs[name].check(values[name])
+            if why:
+                raise ValueError(f"parameter {name}: {why}")
+            self._values[name] = float(values[name])
+        self.version = 0
+
+    def __getitem__(self, name: str) -> float:
+        return self._values[name]
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._values
+
+    def __len__(self) -> int:
+        return len(self._order)
+
+    def names(self) -> list[str]:
+        return list(self._order)
+
+    def definition(self, name: str) -> ParamDef:
+        return self._defs[name]
+
+    def index_of(self, name: str) -> int:
+        return self._order.index(name)
+
+    def by_index(self, index: int) -> tuple[str, float]:
+        name = self._order[index]
+        return name, self._values[name]
+
+    def set(self, name: str, value: float) -> str | None:
+        """Set a parameter; returns None when accepted, else why not (the old value stays)."""
+        d = self._defs.get(name)
+        if d is None:
+            return f"unknown parameter {name!r}"
+        why = d.check(value)
+        if why:
+            return why
+        if self._values[name] != float(value):
+            self._values[name] = float(value)
+            self.version += 1
+        return None
+
+    def axes(self, prefix: str) -> tuple[float, float, float]:
+        """The (surge, heave, pitch) triple of a per-DoF parameter family, e.g. ``axes("WK_PD_KP")``."""
+        return (self._values[f"{prefix}_X"], self._values[f"{prefix}_Z"], self._values[f"{prefix}_P"])
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(self._values)
+
+    def copy(self) -> "ParameterTable":
+        return ParameterTable(self._defs.values(), self._values)
+
+
+def load_params(name_or_path: str | Path = "params", overrides: dict[str, float] | None = None) -> ParameterTable:
+    """Defaults from ``configs/firmware/params.yaml`` (or a path), validated against :data:`PARAM_DEFS`.
+
+    Every parameter needs a value there; an unknown name, a missing one or a
+    value out of range is a :class:`~bridge.configfile.ConfigError` naming the file and key.
+    """
+    from bridge.configfile import Field
+
+    path = resolve_config(name_or_path, "firmware")
+    schema = {d.name: Field("int" if d.integer else "float", lo=d.lo, hi=d.hi, doc=d.doc) for d in PARAM_DEFS}
+    values = load_config(path, schema)
+    table = ParameterTable(PARAM_DEFS, values)
+    for name, value in (overrides or {}).items():
+        why = table.set(name, value)
+        if why:
+            raise ConfigError(path, name, f"override {why}")
+    return table
+
+
