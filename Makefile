@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/wavekeep openloop --case W3 --out runs/openloop-W3
+	$(BIN)/wavekeep run --case W3 --controller cpd_ff --out runs/W3-cpd_ff
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -91,11 +91,11 @@ class Firmware:
         flow, seq = self.predicted_flow(t)
         ff_active = flow is not None
         if ff_active:
-            # τ̂_E at the end of the period (the mixer makes the motors reach their demand by then)
-            u, w, q = self.ekf.x[3:].tolist()
-            end = flow.stage(2)
-            tau_e_hat = np.subtract(hydrodynamic_load(self.vehicle, u, w, q, end),
-                                    hydrodynamic_load(self.vehicle, u, w, q, None))
+            # τ̂_E on the vehicle holding station (ν = 0) at the end of the period, when the mixer
+            # has the motors at their demand. The load's dependence on the vehicle's own motion is
+            # left to the feedback: through the quadratic drag it would turn velocity-estimate
+            # noise into feed-forward noise (≈ 300 N per m/s in W2).
+            tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
         else:
             tau_e_hat = np.zeros(3)
         control = self.controller.update(self.ekf.x, self.setpoint, -tau_e_hat if ff_active else None, self.h)

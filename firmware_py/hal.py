@@ -45,10 +45,14 @@ class PlantLike(Protocol):
 
 
 class InProcessSITLHAL(HAL):
-    """Lockstep in-process SITL: each ``write_pwm`` holds the command for one period and advances the plant.
+    """Lockstep in-process SITL.
 
-    The clock is a :class:`SimClock` that the scheduler moves from slot to slot;
-    the plant's time and the clock agree at every slot.
+    ``write_pwm`` latches the command; the harness then calls :meth:`step_world`,
+    which holds it for one period and advances the plant, as the JSON SITL
+    physics server does on each servo packet. Keeping the plant out of the
+    control task keeps the task's measured compute time the firmware's own.
+    The clock is a :class:`SimClock` that the scheduler moves from slot to
+    slot; the plant's time and the clock agree at every slot.
     """
 
     def __init__(self, plant: PlantLike, params: ParameterTable, period_s: float, sensor_seed: int):
@@ -63,6 +67,8 @@ class InProcessSITLHAL(HAL):
         return self.sensors.read(s.t, s.eta, s.nu)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
-        pwm = np.asarray(pwm)
-        self.last_pwm = pwm.copy()
-        self.plant.step(pwm.astype(float), self.period_s)
+        self.last_pwm = np.array(pwm, dtype=np.int64)
+
+    def step_world(self) -> None:
+        """Advance the plant one period under the latched PWM."""
+        self.plant.step(self.last_pwm.astype(float), self.period_s)

@@ -1,7 +1,9 @@
 """The ``wavekeep`` command line.
 
-    wavekeep sea      --case W1 --duration 1800 --out sea.csv   # the realised sea at the vehicle
-    wavekeep openloop --case W3 --out runs/openloop-W3          # the passive vehicle in the sea
+    wavekeep run       --case W3 --controller cpd_ff --out runs/W3   # one station-keeping mission
+    wavekeep reproduce --out runs/reproduce                          # the paper's nine runs and figures
+    wavekeep sea       --case W1 --duration 1800 --out sea.csv       # the realised sea at the vehicle
+    wavekeep openloop  --case W3 --out runs/openloop-W3              # the passive vehicle in the sea
 
 Every ``--case`` takes a name from ``configs/sea/`` or a path to a sea YAML file.
 Errors in inputs (bad config, unknown case) print one clear line and exit with 2.
@@ -118,9 +120,58 @@ def cmd_openloop(args) -> int:
     return 0
 
 
+def cmd_run(args) -> int:
+    """One station-keeping mission in-process: prints the results, writes the run folder."""
+    from .metrics import format_table
+    from .run import run_mission, write_run
+
+    result = run_mission(args.case, args.controller, args.forecast_snr_db, seed=args.seed, duration=args.duration,
+                         mission=args.mission, vehicle=args.vehicle, progress=True)
+    r = result.results
+    out = write_run(result, args.out, plots=not args.no_plots)
+    print(f"{r['case']} {r['label']}, seed {r['seed']}, {r['duration_s']:g} s at {r['rate_hz']:g} Hz: "
+          f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), "
+          f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
+    metrics = {"rmse": {**r["rmse"], "pitch_deg": float(np.degrees(r["rmse"]["pitch"]))},
+               "max_error": {**r["max_abs_error"], "pitch_deg": float(np.degrees(r["max_abs_error"]["pitch"]))},
+               "mean_power_w": r["mean_power_w"]}
+    print(format_table({r["label"]: metrics}))
+    print(f"wrote {out}/results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png"))
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    """The paper's nine runs, the table in its terms, reproduce.json and the figures."""
+    from .reproduce import format_reproduce_table, reproduce
+
+    doc = reproduce(args.out, seed=args.seed, duration=args.duration, workers=args.workers,
+                    plots=not args.no_plots, progress=lambda m: print(m, file=sys.stderr))
+    print(format_reproduce_table(doc["runs"], doc["summary"]))
+    print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(args.out) / 'reproduce.json'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("run", help="fly one station-keeping mission in-process and report it")
+    _add_common(p)
+    p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
+    p.add_argument("--forecast-snr-db", type=float, default=None,
+                   help="inject the paper's forecast error at this SNR (dB); default: the exact forecast")
+    p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's (600)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG")
+    p.add_argument("--out", required=True, help="run folder")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("reproduce", help="the paper's table: W1-W3 x {C-PD, FF exact, FF 15 dB}")
+    p.add_argument("--seed", type=int, default=None, help="override every sea config's seed")
+    p.add_argument("--duration", type=_positive, default=None, help="seconds per run; default 600")
+    p.add_argument("--workers", type=int, default=None, help="parallel processes; default one per core")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
+    p.set_defaults(func=cmd_reproduce)
 
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)

@@ -19,7 +19,8 @@ def station_keeping_metrics(t: np.ndarray, eta: np.ndarray, setpoint: np.ndarray
     """RMSE, max |error|, mean power and energy per DoF.
 
     t (K,) s; eta (K, 3) truth [x, z, θ]; setpoint (3,) or (K, 3); tau (K, 3) the
-    thruster wrench actually applied [X, Z, M].
+    control wrench [X, Z, M] the controller commanded — the paper's "power
+    consumed by the control actions" (§V-C).
     """
     t = np.asarray(t, dtype=float)
     err = np.asarray(eta, dtype=float) - np.asarray(setpoint, dtype=float)

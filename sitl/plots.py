@@ -1,0 +1,253 @@
+"""Figures of a station-keeping run and of the paper's nine-run reproduction (Walker et al. Figs. 4–7).
+
+Everything here uses matplotlib's object-oriented API (:class:`~matplotlib.figure.Figure`
+behind a :class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`), so it needs
+no display and touches no global pyplot/backend state: safe in worker processes,
+CI and alongside other matplotlib users.
+
+Units on every axis: time s, wave elevation m, surge/heave error m (heave is
+depth error, positive down), pitch error degrees, power W. Errors are truth (or
+EKF estimate) minus the setpoint logged on the same tick.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .metrics import DOF
+from .reproduce import CASES, VARIANTS
+from .run import TIMESERIES_COLUMNS, RunResult, run_label
+
+__all__ = ["plot_run", "plot_reproduce", "REPRODUCE_FIGURES", "LABELS"]
+
+DPI = 120
+LABELS: tuple[str, ...] = tuple(run_label(ctrl, snr) for ctrl, snr in VARIANTS)   # C-PD, exact, 15 dB
+CPD, FF_EXACT, FF_SNR = LABELS
+REPRODUCE_FIGURES = ("fig4_time_history_W3.png", "fig5_forecast_W3.png", "fig6_errors.png", "fig7_power.png")
+
+_STYLE = {
+    CPD: dict(color="tab:red", ls="-", lw=1.1),
+    FF_EXACT: dict(color="tab:blue", ls="-", lw=1.1),
+    FF_SNR: dict(color="tab:orange", ls="--", lw=1.0),
+}
+# (truth column, estimate column, setpoint column, scale to display units, y label)
+_DOF_AXES = {
+    "surge": ("x", "x_hat", "sp_x", 1.0, "surge error x (m)"),
+    "heave": ("z", "z_hat", "sp_z", 1.0, "heave error z (m, +down)"),
+    "pitch": ("theta", "theta_hat", "sp_theta", float(np.degrees(1.0)), "pitch error θ (deg)"),
+}
+_COL = {name: i for i, name in enumerate(TIMESERIES_COLUMNS)}
+
+
+# ---------------------------------------------------------------------------- helpers
+
+def _col(result: RunResult, name: str) -> np.ndarray:
+    """One time-series column by name (units as logged: s, m, rad, N, ...)."""
+    ts = np.asarray(result.timeseries)
+    if ts.ndim != 2 or ts.shape[1] != len(TIMESERIES_COLUMNS):
+        raise ValueError(f"timeseries must have shape (ticks, {len(TIMESERIES_COLUMNS)}), got {ts.shape}")
+    return ts[:, _COL[name]]
+
+
+def _error(result: RunResult, dof: str, estimate: bool = False) -> np.ndarray:
+    """Truth (or EKF estimate) minus setpoint for one DoF, in display units (m, m, deg)."""
+    truth, est, sp, scale, _ = _DOF_AXES[dof]
+    return (_col(result, est if estimate else truth) - _col(result, sp)) * scale
+
+
+def _window(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
+    """Boolean mask of t (s) within ``window`` clipped to the data; all of t if they do not overlap."""
+    lo, hi = max(window[0], t.min()), min(window[1], t.max())
+    return (t >= lo) & (t <= hi) if hi > lo else np.ones_like(t, dtype=bool)
+
+
+def _figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool | str = False) -> tuple[Figure, np.ndarray]:
+    """A headless Agg-backed figure (size in inches) and its axes as a 2-D array."""
+    fig = Figure(figsize=size, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, sharex=sharex, squeeze=False)
+    return fig, axes
+
+
+def _save(fig: Figure, path: str | Path) -> Path:
+    """Write ``fig`` as a PNG at DPI and release it; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, format="png")
+    fig.clear()
+    return path
+
+
+def _select(runs: Sequence[RunResult], case: str, label: str) -> RunResult:
+    """The one run with results["case"] == case and results["label"] == label, else ValueError."""
+    found = [r for r in runs if r.results.get("case") == case and r.results.get("label") == label]
+    if len(found) != 1:
+        have = sorted(f"{r.results.get('case')} / {r.results.get('label')}" for r in runs)
+        what = "no run" if not found else f"{len(found)} runs"
+        raise ValueError(f"plot_reproduce: {what} for case {case!r}, label {label!r}; have {have}")
+    return found[0]
+
+
+def _zero_line(ax: Axes, label: str | None = None) -> None:
+    ax.axhline(0.0, color="k", lw=0.8, ls=":", label=label)
+
+
+# ---------------------------------------------------------------------------- one run
+
+def plot_run(result: RunResult, path: str | Path) -> Path:
+    """Time history of one run as a PNG: wave elevation at the vehicle (m; plus the forecast's
+    if the run had one), then surge, heave (depth) and pitch error — truth solid, EKF estimate
+    thin, setpoint dotted at zero. Errors in m, m and degrees against time in s.
+    """
+    r = result.results
+    t = _col(result, "t")
+    fig, axes = _figure(4, 1, (10.0, 9.0), sharex=True)
+    ax = axes[0, 0]
+    ax.plot(t, _col(result, "wave_eta"), color="tab:blue", lw=1.0, label="wave η at vehicle")
+    fc = _col(result, "forecast_eta")
+    if np.isfinite(fc).any():
+        ax.plot(t, fc, color="tab:orange", lw=0.8, ls="--", label="forecast η")
+    ax.set_ylabel("elevation η (m)")
+    ax.legend(loc="upper right", fontsize=8)
+    for ax, dof in zip(axes[1:, 0], DOF):
+        ax.plot(t, _error(result, dof), color="k", lw=1.1, label="truth")
+        ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.6, label="EKF estimate")
+        _zero_line(ax, "setpoint")
+        ax.set_ylabel(_DOF_AXES[dof][4])
+        ax.legend(loc="upper right", fontsize=8, ncols=3)
+    axes[-1, 0].set_xlabel("time t (s)")
+    for ax in axes[:, 0]:
+        ax.grid(alpha=0.3)
+    rm = r.get("rmse", {})
+    fig.suptitle(f"{r.get('case', '?')} {r.get('label', '?')}, seed {r.get('seed', '?')} — RMSE "
+                 f"surge {rm.get('surge', np.nan):.3f} m, heave {rm.get('heave', np.nan):.3f} m, "
+                 f"pitch {np.degrees(rm.get('pitch', np.nan)):.2f}°")
+    return _save(fig, path)
+
+
+# ---------------------------------------------------------------------------- the paper's figures
+
+def plot_time_history(runs: Sequence[RunResult], path: str | Path, case: str = "W3",
+                      window: tuple[float, float] = (250.0, 400.0)) -> Path:
+    """Fig. 4: wave elevation (m) then surge, heave (m) and pitch (deg) error of C-PD, C-PD+FF
+    exact and C-PD+FF 15 dB overlaid, over ``window`` (s) clipped to the data."""
+    sel = {label: _select(runs, case, label) for label in LABELS}
+    fig, axes = _figure(4, 1, (10.0, 9.0), sharex=True)
+    wave = sel[CPD]
+    m = _window(_col(wave, "t"), window)
+    axes[0, 0].plot(_col(wave, "t")[m], _col(wave, "wave_eta")[m], color="tab:blue", lw=1.0)
+    axes[0, 0].set_ylabel("wave elevation η (m)")
+    for label, run in sel.items():
+        t = _col(run, "t")
+        m = _window(t, window)
+        for ax, dof in zip(axes[1:, 0], DOF):
+            ax.plot(t[m], _error(run, dof)[m], label=label, **_STYLE[label])
+    for ax, dof in zip(axes[1:, 0], DOF):
+        _zero_line(ax)
+        ax.set_ylabel(_DOF_AXES[dof][4])
+    axes[1, 0].legend(loc="upper right", fontsize=8, ncols=3)
+    axes[-1, 0].set_xlabel("time t (s)")
+    for ax in axes[:, 0]:
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{case} time history: C-PD vs C-PD+FF")
+    return _save(fig, path)
+
+
+def _snr_db(truth: np.ndarray, forecast: np.ndarray) -> float:
+    """10 log10(var(η) / var(η̂ − η)) in dB over the finite samples; nan if undefined."""
+    ok = np.isfinite(truth) & np.isfinite(forecast)
+    err = np.var(forecast[ok] - truth[ok]) if ok.any() else np.nan
+    return float(10.0 * np.log10(np.var(truth[ok]) / err)) if ok.any() and err > 0 else float("nan")
+
+
+def plot_forecast(runs: Sequence[RunResult], path: str | Path, case: str = "W3",
+                  window: tuple[float, float] = (250.0, 310.0)) -> Path:
+    """Fig. 5: the encountered wave (exact run's ``wave_eta``, m) against the 15 dB forecast's
+    elevation (``forecast_eta`` of the 15 dB run, m) over ``window`` (s), and their difference.
+    The legend gives the SNR realised over the whole 15 dB run (dB, from that run's own columns)."""
+    exact, noisy = _select(runs, case, FF_EXACT), _select(runs, case, FF_SNR)
+    fig, axes = _figure(2, 1, (10.0, 5.5), sharex=True)
+    te, tn = _col(exact, "t"), _col(noisy, "t")
+    me, mn = _window(te, window), _window(tn, window)
+    eta, fc = _col(exact, "wave_eta"), _col(noisy, "forecast_eta")
+    snr = _snr_db(_col(noisy, "wave_eta"), fc)
+    axes[0, 0].plot(te[me], eta[me], color="k", lw=1.2, label="encountered wave η")
+    axes[0, 0].plot(tn[mn], fc[mn], color="tab:orange", lw=1.0, ls="--",
+                    label=f"{FF_SNR} forecast η̂ (realised SNR {snr:.1f} dB)")
+    axes[0, 0].set_ylabel("elevation (m)")
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    if te.shape == tn.shape and np.allclose(te, tn):
+        axes[1, 0].plot(te[me], (fc - eta)[me], color="tab:purple", lw=0.9)
+    axes[1, 0].set_ylabel("η̂ − η (m)")
+    axes[1, 0].set_xlabel("time t (s)")
+    for ax in axes[:, 0]:
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{case}: encountered wave vs forecast")
+    return _save(fig, path)
+
+
+def _grouped_bars(ax: Axes, values: dict[str, list[float]], unit: str, fmt: str) -> None:
+    """Bars grouped by case (x) with one bar per controller label; values[label][i] per CASES[i]."""
+    x = np.arange(len(CASES))
+    width = 0.8 / len(values)
+    for i, (label, v) in enumerate(values.items()):
+        bars = ax.bar(x + (i - (len(values) - 1) / 2) * width, v, width, label=label, color=_STYLE[label]["color"])
+        ax.bar_label(bars, fmt=fmt, fontsize=6, padding=1)
+    ax.set_xticks(x, CASES)
+    ax.set_ylabel(unit)
+    ax.margins(y=0.15)
+    ax.grid(axis="y", alpha=0.3)
+
+
+def _metric(runs: Sequence[RunResult], key: str, dof: str) -> dict[str, list[float]]:
+    """results[key][dof] per label and case, pitch converted from rad to deg."""
+    scale = float(np.degrees(1.0)) if dof == "pitch" else 1.0
+    return {label: [_select(runs, c, label).results[key][dof] * scale for c in CASES] for label in LABELS}
+
+
+def plot_errors(runs: Sequence[RunResult], path: str | Path) -> Path:
+    """Fig. 6: RMSE (top row) and max |error| (bottom row) for surge (m), heave (m) and pitch (deg),
+    grouped by case with one bar per controller."""
+    fig, axes = _figure(2, 3, (12.0, 6.5))
+    for row, (key, name) in enumerate((("rmse", "RMSE"), ("max_abs_error", "max |error|"))):
+        for col, dof in enumerate(DOF):
+            unit = "deg" if dof == "pitch" else "m"
+            _grouped_bars(axes[row, col], _metric(runs, key, dof), f"{name} ({unit})",
+                          "%.2f" if dof == "pitch" else "%.3f")
+            axes[row, col].set_title(f"{dof} {name}")
+    axes[0, 0].legend(fontsize=8, loc="upper left")
+    fig.suptitle("Station-keeping error per sea state and controller")
+    return _save(fig, path)
+
+
+def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
+    """Fig. 7: mean thruster power (W, the paper's T200 fit) per DoF and in total,
+    grouped by case with one bar per controller."""
+    fig, axes = _figure(1, 4, (14.0, 4.0))
+    per = {dof: _metric(runs, "mean_power_w", dof) for dof in DOF}
+    total = {label: list(np.sum([per[d][label] for d in DOF], axis=0)) for label in LABELS}
+    for ax, (name, vals) in zip(axes[0], [*per.items(), ("total", total)]):
+        _grouped_bars(ax, vals, "mean power (W)", "%.0f")
+        ax.set_title(f"{name}")
+    axes[0, 0].legend(fontsize=8, loc="upper left")
+    fig.suptitle("Mean power per DoF and in total")
+    return _save(fig, path)
+
+
+def plot_reproduce(runs: Sequence[RunResult], out_dir: str | Path, window: tuple[float, float] = (250.0, 400.0),
+                   forecast_window: tuple[float, float] = (250.0, 310.0)) -> list[Path]:
+    """The paper's Figs. 4–7 from the nine runs (W1..W3 × C-PD, C-PD+FF exact, C-PD+FF 15 dB) into
+    ``out_dir``; runs are picked by results["case"] and ["label"], so order does not matter and a
+    missing (or duplicated) run raises ValueError before anything is written. Windows in s."""
+    for c in CASES:
+        for label in LABELS:
+            _select(runs, c, label)
+    out = Path(out_dir)
+    f4, f5, f6, f7 = (out / name for name in REPRODUCE_FIGURES)
+    return [plot_time_history(runs, f4, "W3", window), plot_forecast(runs, f5, "W3", forecast_window),
+            plot_errors(runs, f6), plot_power(runs, f7)]
