@@ -12,6 +12,8 @@ velocity; the same predicted flow drives the estimator's prediction.
 """
 from __future__ import annotations
 
+import math
+from collections import deque
 from dataclasses import dataclass
 from typing import Callable
 
@@ -22,13 +24,14 @@ from .estimator import PlanarEKF
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
+from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mode
 from .params import ParameterTable
 from .physics.thrusters import T200Curve, ThrusterLayout
 from .physics.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 
-__all__ = ["TickRecord", "Firmware"]
+__all__ = ["TickRecord", "PilotInput", "Firmware"]
 
 
 @dataclass(frozen=True)
@@ -47,8 +50,34 @@ class TickRecord:
     forecast_seq: int
 
 
+@dataclass
+class PilotInput:
+    """The pilot's stick demands, normalised to [−1, 1]: forward (surge), up (heave), pitch up."""
+
+    surge: float = 0.0
+    up: float = 0.0
+    pitch: float = 0.0
+    t: float = -math.inf          # vehicle time of the last input (s)
+
+
+@dataclass
+class MotorTest:
+    motor: int                   # 0-based
+    pwm: int
+    until: float                 # vehicle time (s)
+
+
 class Firmware:
-    """The vehicle's control software, bound to a HAL."""
+    """The vehicle's control software, bound to a HAL.
+
+    Boots disarmed in MANUAL, as ArduSub does. The GCS link (or a test, or
+    the in-process runner) drives it through :meth:`request_mode`,
+    :meth:`request_arm`, :meth:`set_target`, :meth:`pilot_input`,
+    :meth:`motor_test` and :meth:`gcs_heartbeat`; it reports through
+    :attr:`last`, :meth:`system_status` and the :attr:`events` queue
+    (STATUSTEXT). Those calls may come from another thread: each stores plain
+    values the next tick picks up.
+    """
 
     def __init__(self, hal: HAL, params: ParameterTable, vehicle: VehicleParams, layout: ThrusterLayout,
                  curve: T200Curve, setpoint, loop_rate_hz: float = 20.0, strips: int = 3,
@@ -58,17 +87,136 @@ class Firmware:
         self.vehicle = vehicle
         self.h = 1.0 / loop_rate_hz
         self.strips = strip_nodes(vehicle.length, strips)
-        self.setpoint = np.asarray(setpoint, dtype=float)
+        self.setpoint = np.asarray(setpoint, dtype=float)   # the current target [x, z, θ]
         self.forecast = forecast if forecast is not None else ForecastHandoff()
         self.ekf = PlanarEKF(vehicle, params, self.h)
         self.controller = StationKeepingController(params, vehicle)
         self.mixer = MotorMixer(layout, curve, params, self.h)
         self.on_tick = on_tick
         self.last: TickRecord | None = None
+        self.mode = Mode.MANUAL
+        self.armed = False
+        self.pilot = PilotInput()
+        self.events: deque[tuple[int, str]] = deque(maxlen=64)
+        self.failsafe_gcs = False
+        self.sensors_healthy = False
+        self._motor_test: MotorTest | None = None
+        self._gcs_last_seen: float | None = None
         self._pending: tuple | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
-        self.scheduler = Scheduler(hal.clock, loop_rate_hz, [Task("control", loop_rate_hz, self.control_task)])
+        self._now = 0.0
+        self._ff_was_active = False
+        self.loop_rate_hz = loop_rate_hz
+        self.tasks = [Task("control", loop_rate_hz, self.control_task)]
+        self.scheduler = Scheduler(hal.clock, loop_rate_hz, self.tasks)
 
+    def add_task(self, task: Task) -> None:
+        """Add a task (GCS link, SITL world...) after the control task; only before the loop starts."""
+        if self.scheduler.t0_ns is not None:
+            raise RuntimeError("tasks can only be added before the scheduler starts")
+        self.tasks.append(task)
+        self.scheduler = Scheduler(self.hal.clock, self.loop_rate_hz, self.tasks)
+
+    # ------------------------------------------------------------------ commands (any thread)
+    def say(self, severity: int, text: str) -> None:
+        """Queue a STATUSTEXT."""
+        self.events.append((int(severity), text[:50]))
+
+    def request_mode(self, mode: int) -> MAV_RESULT:
+        """Switch flight mode; unknown or unsupported modes are refused and the mode is kept."""
+        try:
+            m = Mode(int(mode))
+        except ValueError:
+            return MAV_RESULT.FAILED
+        if m not in SUPPORTED:
+            return MAV_RESULT.FAILED
+        if AUTO_AXES[m][0] and not self.ekf.converged():
+            self.say(MAV_SEVERITY.WARNING, f"{m.name} needs a position estimate")
+            return MAV_RESULT.FAILED
+        if m != self.mode:
+            self._enter(m)
+        return MAV_RESULT.ACCEPTED
+
+    def _enter(self, m: Mode) -> None:
+        x = self.ekf.x if self.ekf.initialised else self.setpoint
+        if m in (Mode.POSHOLD, Mode.ALT_HOLD, Mode.SURFACE, Mode.STABILIZE):
+            # Hold where the mode was entered (ArduSub), level
+            self.setpoint = np.array([x[0], x[1], 0.0])
+        elif m == Mode.GUIDED and self.mode != Mode.GUIDED:
+            self.setpoint = np.array([x[0], x[1], 0.0])
+        self.mode = m
+        self.controller.reset()
+        self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
+
+    def prearm_failure(self) -> str | None:
+        """Why the vehicle may not arm, or None."""
+        if not self.sensors_healthy:
+            return "sensors unhealthy"
+        if not self.ekf.converged():
+            return "EKF not converged"
+        return None
+
+    def request_arm(self, arm: bool, force: bool = False) -> tuple[MAV_RESULT, str]:
+        """Arm (after the pre-arm checks, unless forced) or disarm."""
+        if not arm:
+            if self.armed:
+                self.armed = False
+                self._motor_test = None
+                self.say(MAV_SEVERITY.INFO, "Disarmed")
+            return MAV_RESULT.ACCEPTED, ""
+        if self.armed:
+            return MAV_RESULT.ACCEPTED, ""
+        why = None if force else self.prearm_failure()
+        if why:
+            self.say(MAV_SEVERITY.CRITICAL, f"PreArm: {why}")
+            return MAV_RESULT.FAILED, why
+        self.armed = True
+        self.controller.reset()
+        self.say(MAV_SEVERITY.INFO, "Armed" + (" (forced)" if force else ""))
+        return MAV_RESULT.ACCEPTED, ""
+
+    def set_target(self, x: float | None, depth: float | None, pitch: float | None = None) -> MAV_RESULT:
+        """A GUIDED target (NED x, depth in m, pitch in rad; None keeps that coordinate)."""
+        if self.mode != Mode.GUIDED:
+            return MAV_RESULT.DENIED
+        sp = self.setpoint.copy()
+        for i, v in enumerate((x, depth, pitch)):
+            if v is not None:
+                if not math.isfinite(v):
+                    return MAV_RESULT.DENIED
+                sp[i] = v
+        self.setpoint = sp
+        return MAV_RESULT.ACCEPTED
+
+    def pilot_input(self, surge: float, up: float, pitch: float) -> None:
+        """Normalised stick demands in [−1, 1] (clipped); timestamped with the vehicle clock."""
+        clip = lambda v: 0.0 if not math.isfinite(v) else min(1.0, max(-1.0, v))  # noqa: E731
+        self.pilot = PilotInput(clip(surge), clip(up), clip(pitch), self._now)
+
+    def motor_test(self, motor: int, pwm: int, timeout_s: float) -> MAV_RESULT:
+        """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it)."""
+        if not self.armed:
+            return MAV_RESULT.DENIED
+        if not 1 <= motor <= self.mixer.layout.n or not 1100 <= pwm <= 1900:
+            return MAV_RESULT.DENIED
+        self._motor_test = MotorTest(motor - 1, int(pwm), self._now + min(max(timeout_s, 0.0), 0.5))
+        return MAV_RESULT.ACCEPTED
+
+    def gcs_heartbeat(self) -> None:
+        """The GCS (sysid SYSID_MYGCS) was heard."""
+        self._gcs_last_seen = self._now
+        if self.failsafe_gcs:
+            self.failsafe_gcs = False
+            self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
+
+    def system_status(self) -> MAV_STATE:
+        if self.last is None and not self.ekf.initialised:
+            return MAV_STATE.BOOT
+        if self.failsafe_gcs:
+            return MAV_STATE.CRITICAL
+        return MAV_STATE.ACTIVE if self.armed else MAV_STATE.STANDBY
+
+    # ------------------------------------------------------------------ the control task
     def predicted_flow(self, t: float) -> tuple[BodyFlow | None, int]:
         """The forecast's flow at the strips, at the estimated pose, at t, t + h/2, t + h — or None."""
         if not self.params["WK_FF_ENABLE"] or not self.ekf.initialised:
@@ -78,18 +226,53 @@ class Firmware:
             return None, -1
         return body_flow(active.components, self.ekf.x[:3], t + self._stage_offsets, self.strips), active.forecast.seq
 
+    def _check_gcs_failsafe(self, t: float) -> None:
+        action = int(self.params["FS_GCS_ENABLE"])
+        if (action == 0 or not self.armed or self._gcs_last_seen is None or self.failsafe_gcs
+                or t - self._gcs_last_seen <= self.params["FS_GCS_TIMEOUT"]):
+            return
+        self.failsafe_gcs = True
+        self.say(MAV_SEVERITY.CRITICAL, "GCS failsafe")
+        if action == 2:
+            self.request_arm(False)
+        elif action == 3:
+            self._enter(Mode.ALT_HOLD)
+        elif action == 4:
+            self._enter(Mode.SURFACE)
+
+    def _pilot_wrench(self, t: float) -> np.ndarray:
+        """Pilot demand as a wrench [X, Z, M] (N, N, N m): forward, up (−Z in FRD), pitch up."""
+        p = self.pilot
+        if t - p.t > self.params["WK_PILOT_TMO"]:
+            return np.zeros(3)
+        return np.array(self.params.axes("WK_TAU_MAX")) * np.array([p.surge, -p.up, p.pitch])
+
+    def _move_target(self, t: float) -> None:
+        """ALT_HOLD: the throttle stick moves the depth target; SURFACE: it rises at WK_SURF_RATE."""
+        if self.mode == Mode.ALT_HOLD and t - self.pilot.t <= self.params["WK_PILOT_TMO"]:
+            up = self.pilot.up if abs(self.pilot.up) > 0.05 else 0.0
+            self.setpoint[1] = max(0.0, self.setpoint[1] - up * self.params["WK_CLIMB_RATE"] * self.h)
+        elif self.mode == Mode.SURFACE:
+            self.setpoint[1] = max(0.0, self.setpoint[1] - self.params["WK_SURF_RATE"] * self.h)
+
     def control_task(self, slot_ns: int) -> None:
         t = slot_ns * 1e-9
+        self._now = t
         frame = self.hal.read_sensors()
+        self.sensors_healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
         if self._pending is not None:
             self.ekf.predict(*self._pending)
         self.ekf.update(frame)
+        self._check_gcs_failsafe(t)
         if not self.ekf.initialised:
-            mix = self.mixer.neutral()
-            self.hal.write_pwm(mix.pwm)
+            self.hal.write_pwm(self.mixer.neutral().pwm)
             return
         flow, seq = self.predicted_flow(t)
-        ff_active = flow is not None
+        auto = AUTO_AXES[self.mode]
+        ff_active = flow is not None and self.armed and all(auto)
+        if ff_active != self._ff_was_active:
+            self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
+            self._ff_was_active = ff_active
         if ff_active:
             # τ̂_E on the vehicle holding station (ν = 0) at the end of the period, when the mixer
             # has the motors at their demand. The load's dependence on the vehicle's own motion is
@@ -98,8 +281,18 @@ class Firmware:
             tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
         else:
             tau_e_hat = np.zeros(3)
+        self._move_target(t)
         control = self.controller.update(self.ekf.x, self.setpoint, -tau_e_hat if ff_active else None, self.h)
-        mix = self.mixer.mix(control.tau)
+        if not self.armed:
+            mix = self.mixer.neutral()
+        elif self._motor_test is not None and t <= self._motor_test.until:
+            pwm = np.full(self.mixer.layout.n, 1500, dtype=np.int64)
+            pwm[self._motor_test.motor] = self._motor_test.pwm
+            mix = self.mixer.output(pwm)
+        else:
+            self._motor_test = None
+            tau = np.where(auto, control.tau, self._pilot_wrench(t))
+            mix = self.mixer.mix(tau)
         self.hal.write_pwm(mix.pwm)
         self._pending = (mix.tau_stages, flow)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,

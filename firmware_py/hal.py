@@ -55,10 +55,11 @@ class InProcessSITLHAL(HAL):
     slot; the plant's time and the clock agree at every slot.
     """
 
-    def __init__(self, plant: PlantLike, params: ParameterTable, period_s: float, sensor_seed: int):
+    def __init__(self, plant: PlantLike, params: ParameterTable, period_s: float, sensor_seed: int,
+                 clock: Clock | None = None):
         self.plant = plant
         self.period_s = float(period_s)
-        self.clock = SimClock(start_ns=int(round(plant.state.t * 1e9)))
+        self.clock = clock if clock is not None else SimClock(start_ns=int(round(plant.state.t * 1e9)))
         self.sensors = SimulatedSensors(params, sensor_seed)
         self.last_pwm = np.full(PWM_CHANNELS, 1500, dtype=np.int64)
 

@@ -54,7 +54,10 @@ class MotorMixer:
     def reset(self) -> None:
         self.f_hat = np.zeros(self.layout.n)
 
-    def _output(self, pwm: np.ndarray, f_d: np.ndarray) -> MixerOutput:
+    def output(self, pwm: np.ndarray, f_d: np.ndarray | None = None) -> MixerOutput:
+        """Send these PWM values (µs); keeps the firmware's motor model in step."""
+        if f_d is None:
+            f_d = self.curve.thrust(pwm)
         f_sent = self.curve.thrust(pwm)
         stages = motor_lag_stages(f_sent, self.f_hat, self.params["WK_MOT_TC"], self._stage_offsets)
         self.f_hat = stages[-1]
@@ -70,7 +73,7 @@ class MotorMixer:
         else:
             f_cmd = f_d
         pwm = np.rint(self.curve.pwm(f_cmd)).astype(np.int64)
-        return self._output(pwm, f_d)
+        return self.output(pwm, f_d)
 
     _PRIORITY = (2, 1, 0)  # pitch, heave, surge
 
@@ -89,4 +92,4 @@ class MotorMixer:
     def neutral(self) -> MixerOutput:
         """Every thruster at the neutral pulse (disarmed, failsafe)."""
         pwm = np.full(self.layout.n, int(round(self.curve.pwm_neutral)), dtype=np.int64)
-        return self._output(pwm, np.zeros(self.layout.n))
+        return self.output(pwm, np.zeros(self.layout.n))

@@ -2,6 +2,8 @@
 
     wavekeep run       --case W3 --controller cpd_ff --out runs/W3   # one station-keeping mission
     wavekeep reproduce --out runs/reproduce                          # the paper's nine runs and figures
+    wavekeep live      --case W3 --mavlink udpout:127.0.0.1:14550    # fly it from a ground station
+    wavekeep thrust    --pattern sine --axis heave --arm             # stream thrust demands over MAVLink
     wavekeep sea       --case W1 --duration 1800 --out sea.csv       # the realised sea at the vehicle
     wavekeep openloop  --case W3 --out runs/openloop-W3              # the passive vehicle in the sea
 
@@ -151,6 +153,41 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+def cmd_live(args) -> int:
+    """The vehicle flying live in one process, with its MAVLink link, until Ctrl-C or --duration."""
+    from .live import LiveSim
+
+    key = None
+    if args.signing_key:
+        from firmware_py.gcs import load_signing_key
+        key = load_signing_key(args.signing_key)
+    sim = LiveSim(args.case, args.controller, args.forecast_snr_db, seed=args.seed,
+                  mavlink=args.mavlink or ["udpout:127.0.0.1:14550"], speedup=args.speedup, signing_key=key)
+    print(f"Wavekeep live: {args.case}, {args.controller}, MAVLink on {', '.join(args.mavlink or ['udpout:127.0.0.1:14550'])}"
+          f", speed-up {args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops.")
+    with sim:
+        t0 = time.monotonic()
+        try:
+            while args.duration is None or time.monotonic() - t0 < args.duration / args.speedup:
+                time.sleep(0.2)
+        except KeyboardInterrupt:
+            pass
+    stats = sim.firmware.scheduler.stats()
+    print(f"stopped: {stats['ticks']} ticks, {stats['overruns']} overruns; link counters {sim.link.counters}")
+    return 0
+
+
+def cmd_thrust(args) -> int:
+    """Stream thrust demands to a vehicle over MAVLink at 20 Hz."""
+    from .thrust import csv_profile, pattern_profile, stream_thrust
+
+    profile = csv_profile(args.csv) if args.csv else pattern_profile(args.pattern, args.axis, args.amplitude,
+                                                                      args.duration, args.period)
+    out = stream_thrust(args.mavlink, profile, units=args.units, arm=args.arm)
+    print(f"sent {out['messages']} messages in {out['ticks']} ticks over {out['duration_s']:.1f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -172,6 +209,30 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
+    _add_common(p)
+    p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
+    p.add_argument("--forecast-snr-db", type=float, default=None)
+    p.add_argument("--mavlink", action="append", help="endpoint (repeatable): udpout:HOST:PORT, udpin:..., tcp:...; "
+                   "default udpout:127.0.0.1:14550")
+    p.add_argument("--speedup", type=_positive, default=1.0, help="simulated time per wall-clock second")
+    p.add_argument("--duration", type=_positive, default=None, help="stop after this much simulated time (s)")
+    p.add_argument("--signing-key", default=None, help="file with a 32-byte MAVLink 2 signing key")
+    p.set_defaults(func=cmd_live)
+
+    p = sub.add_parser("thrust", help="stream thrust demands to a vehicle at 20 Hz (bench tests)")
+    p.add_argument("--mavlink", default="udpin:127.0.0.1:14550", help="where to meet the vehicle (GCS side)")
+    p.add_argument("--csv", default=None, help="CSV of t, surge, heave, pitch demands")
+    p.add_argument("--pattern", choices=("zero", "step", "square", "sine", "sweep"), default="step")
+    p.add_argument("--axis", choices=("surge", "heave", "pitch"), default="surge")
+    p.add_argument("--amplitude", type=float, default=0.2)
+    p.add_argument("--period", type=_positive, default=4.0, help="s, for square and sine")
+    p.add_argument("--duration", type=_positive, default=10.0, help="s, for patterns")
+    p.add_argument("--units", choices=("normalised", "si"), default="normalised",
+                   help="normalised sticks in [-1, 1], or N / N m scaled by the vehicle's WK_TAU_MAX_*")
+    p.add_argument("--arm", action="store_true", help="switch the vehicle to MANUAL and arm it first")
+    p.set_defaults(func=cmd_thrust)
 
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)
@@ -197,6 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"wavekeep: config error: {exc}", file=sys.stderr)
         return 2
+    except (TimeoutError, ValueError, RuntimeError) as exc:
+        print(f"wavekeep {args.command}: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("wavekeep: interrupted", file=sys.stderr)
         return 130

@@ -16,20 +16,22 @@ from pathlib import Path
 
 import numpy as np
 
-from bridge.forecast import oracle_forecast
+from bridge.forecast import Forecast, oracle_forecast
 from firmware_py.config import load_mission_config, load_vehicle_config
 from firmware_py.firmware import Firmware
 from firmware_py.hal import InProcessSITLHAL
+from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
 from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
 from firmware_py.physics.vehicle import VehicleParams
+from firmware_py.scheduler import Clock
 
 from .metrics import DOF, station_keeping_metrics
 from .plant import Plant
 from .progress import ProgressBar
 from .sea import Sea
 
-__all__ = ["CONTROLLERS", "RunResult", "run_mission", "write_run", "TIMESERIES_COLUMNS", "run_label"]
+__all__ = ["CONTROLLERS", "MissionSetup", "build_mission", "RunResult", "run_mission", "write_run", "TIMESERIES_COLUMNS", "run_label"]
 
 CONTROLLERS = ("cpd", "cpd_ff")
 
@@ -67,6 +69,53 @@ def _elevation_along(components, x: np.ndarray, t: np.ndarray, chunk: int = 2048
     return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
 
 
+@dataclass
+class MissionSetup:
+    """The world and the firmware, wired together and not yet flying."""
+
+    sea: Sea
+    plant: Plant
+    hal: InProcessSITLHAL
+    firmware: Firmware
+    forecast: Forecast | None
+    setpoint: np.ndarray
+    rate_hz: float
+    duration_s: float
+    seed: int
+
+
+def build_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None, seed: int | None = None,
+                  duration: float | None = None, mission: str = "station_keeping", vehicle: str = "bluerov2_heavy",
+                  params: ParameterTable | None = None, initial_eta=None, clock: Clock | None = None) -> MissionSetup:
+    """Build sea, plant, in-process HAL and firmware for one mission (see :func:`run_mission`).
+
+    ``clock`` paces the firmware (default: lockstep simulated time).
+    """
+    if controller not in CONTROLLERS:
+        raise ValueError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
+    sea = Sea.load(case, seed=seed)
+    mcfg = load_mission_config(mission)
+    vcfg = load_vehicle_config(vehicle)
+    params = (params or load_params()).copy()
+    params.set("WK_FF_ENABLE", 1 if controller == "cpd_ff" else 0)
+    rate = mcfg["control_rate"]
+    sp = mcfg["setpoint"]
+    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
+    plant = Plant.from_configs(sea, vehicle, mission)
+    if initial_eta is not None:
+        plant.reset(eta=initial_eta)
+    sensor_seed, forecast_seed = _seeds(sea.seed)
+    hal = InProcessSITLHAL(plant, params, 1.0 / rate, sensor_seed, clock)
+    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
+                  T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
+    forecast = None
+    if controller == "cpd_ff":
+        forecast = oracle_forecast(sea.components, snr_db, np.random.default_rng(forecast_seed))
+        fw.forecast.offer(forecast)
+    return MissionSetup(sea, plant, hal, fw, forecast, setpoint, rate,
+                        mcfg["duration"] if duration is None else float(duration), sea.seed)
+
+
 def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None, seed: int | None = None,
                 duration: float | None = None, mission: str = "station_keeping", vehicle: str = "bluerov2_heavy",
                 params: ParameterTable | None = None, progress: bool = False,
@@ -79,32 +128,20 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
     and forecast error streams. ``initial_eta`` starts the vehicle at another pose
     [x, z, θ] than the setpoint (a setpoint step).
     """
-    if controller not in CONTROLLERS:
-        raise ValueError(f"controller must be one of {CONTROLLERS}, got {controller!r}")
-    sea = Sea.load(case, seed=seed)
-    seed = sea.seed
-    mcfg = load_mission_config(mission)
-    vcfg = load_vehicle_config(vehicle)
-    params = (params or load_params()).copy()
-    params.set("WK_FF_ENABLE", 1 if controller == "cpd_ff" else 0)
-    rate = mcfg["control_rate"]
-    h = 1.0 / rate
-    duration = mcfg["duration"] if duration is None else float(duration)
+    m = build_mission(case, controller, snr_db, seed, duration, mission, vehicle, params, initial_eta)
+    sea, plant, hal, fw, forecast, setpoint, rate = m.sea, m.plant, m.hal, m.firmware, m.forecast, m.setpoint, m.rate_hz
+    seed, duration = m.seed, m.duration_s
     n = int(round(duration * rate))
-    sp = mcfg["setpoint"]
-    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
-
-    plant = Plant.from_configs(sea, vehicle, mission)
-    if initial_eta is not None:
-        plant.reset(eta=initial_eta)
-    sensor_seed, forecast_seed = _seeds(seed)
-    hal = InProcessSITLHAL(plant, params, h, sensor_seed)
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
-    forecast = None
-    if controller == "cpd_ff":
-        forecast = oracle_forecast(sea.components, snr_db, np.random.default_rng(forecast_seed))
-        fw.forecast.offer(forecast)
+    # Take off as a ground station would: the first tick initialises the estimator; then
+    # GUIDED to the mission's station, and arm.
+    fw.scheduler.run_tick()
+    hal.step_world()
+    fw.request_mode(Mode.GUIDED)
+    fw.set_target(*setpoint)
+    result, why = fw.request_arm(True)
+    if result != 0:
+        raise RuntimeError(f"the firmware refused to arm: {why}")
+    n -= 1
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
     wall0 = time.perf_counter()
     with ProgressBar(n, f"{sea.name} {run_label(controller, snr_db)}", enabled=None if progress else False) as bar:

@@ -1,0 +1,62 @@
+"""A live vehicle in one process: the world and the firmware on a (scaled) wall clock, with its MAVLink link.
+
+For flying Wavekeep from a ground station now, and for the link's tests. The
+firmware's scheduler runs the control task, the GCS link's update and the
+world's step each slot, in a background thread, on :class:`ScaledClock` (real
+time at ``speedup`` 1). The multi-process launcher (``wavekeep sim``) puts the
+world and the firmware in separate processes instead.
+"""
+from __future__ import annotations
+
+import threading
+
+from firmware_py.params import ParameterTable
+from firmware_py.scheduler import ScaledClock, Task
+
+from .run import MissionSetup, build_mission
+
+__all__ = ["LiveSim"]
+
+
+class LiveSim:
+    """``with LiveSim(mavlink=["udpout:127.0.0.1:14550"]) as sim: ...`` — the vehicle flies until stopped.
+
+    The vehicle boots disarmed in MANUAL at the mission's station; a ground
+    station arms it and picks a mode. ``speedup`` > 1 runs faster than real time.
+    """
+
+    def __init__(self, case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None,
+                 seed: int | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
+                 speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None):
+        from firmware_py.gcs import MavlinkLink
+
+        self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
+                                                 clock=ScaledClock(speedup))
+        self.firmware = self.setup.firmware
+        self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)
+        rate = self.setup.rate_hz
+        self.firmware.add_task(Task("gcs", rate, self.link.update))
+        self.firmware.add_task(Task("world", rate, lambda _slot: self.setup.hal.step_world()))
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> "LiveSim":
+        self.link.start()
+        self._thread = threading.Thread(target=self._run, name="wavekeep-live", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        self.firmware.scheduler.run(stop=self._stop.is_set)
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+        self.link.stop()
+
+    def __enter__(self) -> "LiveSim":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
