@@ -72,6 +72,9 @@ class MotorMixer:
             f_cmd = (f_d - a * self.f_hat) / (1.0 - a)
         else:
             f_cmd = f_d
+        # Below WK_THR_MIN a thruster is sent neutral: the curve is flat at the dead band's edge,
+        # so a residual of a few mN would otherwise hold it at 1472/1528 µs indefinitely.
+        f_cmd = np.where(np.abs(f_cmd) < p["WK_THR_MIN"], 0.0, f_cmd)
         pwm = np.rint(self.curve.pwm(f_cmd)).astype(np.int64)
         return self.output(pwm, f_d)
 

@@ -70,6 +70,7 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
     # Motors and mixer
     ParamDef("WK_THR_MAX", 1.0, 60.0, "N", "per-thruster thrust limit used by the allocation"),
+    ParamDef("WK_THR_MIN", 0.0, 5.0, "N", "thrust commands smaller than this are sent as neutral PWM"),
     ParamDef("WK_MOT_TC", 0.001, 2.0, "s", "nominal first-order motor time constant"),
     ParamDef("WK_MOT_COMP", 0, 1, "", "motor-lag compensation (paper Eq. 13) on (1) or off (0)", integer=True),
     # Estimator
