@@ -259,13 +259,20 @@ class Firmware:
         t = slot_ns * 1e-9
         self._now = t
         frame = self.hal.read_sensors()
-        self.sensors_healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
+        healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
+        if healthy != self.sensors_healthy and self.ekf.initialised:
+            self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
+                     "Sensors back" if healthy else "Sensors lost: thrusters neutral")
+        self.sensors_healthy = healthy
         if self._pending is not None:
             self.ekf.predict(*self._pending)
         self.ekf.update(frame)
         self._check_gcs_failsafe(t)
-        if not self.ekf.initialised:
-            self.hal.write_pwm(self.mixer.neutral().pwm)
+        if not self.ekf.initialised or not healthy:
+            # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
+            mix = self.mixer.neutral()
+            self.hal.write_pwm(mix.pwm)
+            self._pending = (mix.tau_stages, None)
             return
         flow, seq = self.predicted_flow(t)
         auto = AUTO_AXES[self.mode]
