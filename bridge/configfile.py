@@ -43,7 +43,8 @@ class Field:
 
     kind: ``"float"``, ``"int"``, ``"bool"``, ``"str"``, ``"floats"`` (a list of
     numbers, optionally of fixed ``length``), ``"choice"`` (a string among
-    ``choices``) or ``"list"`` (a list of mappings each validated by ``item``).
+    ``choices``), ``"list_str"`` (a list of non-empty strings) or ``"list"`` (a
+    list of mappings each validated by ``item``).
     ``lo``/``hi`` bound numbers (inclusive unless ``lo_open``/``hi_open``).
     """
 
@@ -77,6 +78,8 @@ class Field:
             return f"an integer in {rng}"
         if self.kind == "list":
             return "a list of mappings"
+        if self.kind == "list_str":
+            return "a list of strings"
         return f"a finite number in {rng}"
 
 
@@ -122,6 +125,10 @@ def _check_leaf(value: Any, spec: Field, file, key: str) -> Any:
         return [
             _check_number(v, spec, file, f"{key}[{i}]", integer=False) for i, v in enumerate(value)
         ]
+    if spec.kind == "list_str":
+        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+            raise ConfigError(file, key, f"got {value!r:.60}; allowed: {spec.allowed()}")
+        return list(value)
     if spec.kind == "list":
         if not isinstance(value, list) or (spec.length is not None and len(value) != spec.length):
             n = f"exactly {spec.length} " if spec.length is not None else ""

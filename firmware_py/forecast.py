@@ -35,6 +35,10 @@ class ForecastHandoff:
         self._slot = forecast
         self.offered += 1
 
+    def newest(self) -> Forecast | None:
+        """The newest forecast offered, valid or not."""
+        return self._slot
+
     def current(self, t: float) -> ActiveForecast | None:
         """The newest forecast if it is valid at vehicle time t (s), else None. Control-task side."""
         f = self._slot

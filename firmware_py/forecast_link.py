@@ -1,0 +1,80 @@
+"""The vehicle's end of the forecast link: zenoh in, the :class:`ForecastHandoff` out.
+
+:meth:`ZenohForecastLink.poll` runs as a scheduler task. It never blocks: the
+forecast subscriber keeps only the newest sample (``RingChannel(1)``, NOTES.md)
+and the liveliness subscriber a short FIFO; both are read with ``try_recv``.
+Every payload goes through :func:`~bridge.forecast_codec.decode_forecast`; a
+rejected one is counted by reason and never reaches the control task. The
+service's liveliness token appearing or vanishing is reported as a STATUSTEXT.
+Whether the feed-forward runs is decided by the forecast's own validity window
+(:meth:`ForecastHandoff.current`): when the service dies, FF goes off as soon as
+the last forecast it sent expires.
+"""
+from __future__ import annotations
+
+from collections import Counter
+from typing import Callable
+
+from bridge.forecast_codec import ForecastDecodeError, decode_forecast
+from bridge.keys import forecast_key, service_token_key
+
+from .forecast import ForecastHandoff
+from .modes import MAV_SEVERITY
+
+__all__ = ["ZenohForecastLink"]
+
+
+class ZenohForecastLink:
+    def __init__(self, session, site: str, handoff: ForecastHandoff,
+                 say: Callable[[int, str], None] = lambda severity, text: None):
+        import zenoh
+
+        self.handoff = handoff
+        self.say = say
+        self._sub = session.declare_subscriber(forecast_key(site), zenoh.handlers.RingChannel(1))
+        self._live = session.liveliness().declare_subscriber(service_token_key(site), history=True,
+                                                             handler=zenoh.handlers.FifoChannel(16))
+        self.received = 0
+        self.accepted = 0
+        self.rejected: Counter[str] = Counter()
+        self.service_alive = False
+        self.last_seq: int | None = None
+
+    def poll(self, _slot_ns: int = 0) -> None:
+        """Take the newest forecast and any liveliness change; never blocks."""
+        while True:
+            change = self._live.try_recv()
+            if change is None:
+                break
+            alive = str(change.kind).endswith("PUT")
+            if alive != self.service_alive:
+                self.service_alive = alive
+                self.say(MAV_SEVERITY.INFO if alive else MAV_SEVERITY.WARNING,
+                         "Forecast service up" if alive else "Forecast service lost")
+        sample = self._sub.try_recv()
+        if sample is None:
+            return
+        self.received += 1
+        try:
+            forecast = decode_forecast(sample.payload.to_bytes())
+        except ForecastDecodeError as exc:
+            self.rejected[exc.reason] += 1
+            return
+        current = self.handoff.newest()
+        if current is not None and forecast.valid_until < current.valid_until:
+            self.rejected["superseded"] += 1      # older than what the vehicle already has
+            return
+        self.last_seq = forecast.seq
+        self.accepted += 1
+        self.handoff.offer(forecast)
+
+    def counters(self) -> dict:
+        return {"received": self.received, "accepted": self.accepted, "rejected": dict(self.rejected),
+                "service_alive": self.service_alive}
+
+    def close(self) -> None:
+        for h in (self._sub, self._live):
+            try:
+                h.undeclare()
+            except Exception:  # noqa: BLE001 - closing a session that is already gone
+                pass

@@ -1,0 +1,169 @@
+"""The forecast over zenoh: codec against bad input, real loopback sessions, liveliness."""
+from __future__ import annotations
+
+import json
+import socket
+import struct
+import time
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from bridge.forecast import oracle_forecast
+from bridge.forecast_codec import MAX_PAYLOAD, ForecastDecodeError, decode_forecast, encode_forecast
+from bridge.keys import check_site, forecast_key, service_token_key
+from bridge.zenoh_net import load_network_config, zenoh_config
+from firmware_py.forecast import ForecastHandoff
+from firmware_py.forecast_link import ZenohForecastLink
+from sitl.sea import Sea
+
+
+@pytest.fixture(scope="module")
+def forecast():
+    return oracle_forecast(Sea.load("W1").components, None, None, valid_from=0.0, valid_until=60.0, seq=3)
+
+
+def test_codec_round_trip_is_exact(forecast):
+    g = decode_forecast(encode_forecast(forecast))
+    for name in ("amplitude", "omega", "k", "phase"):
+        np.testing.assert_array_equal(getattr(g, name), getattr(forecast, name))
+    assert (g.seq, g.source, g.second_order, g.valid_until, g.water_depth) == (3, "oracle", True, 60.0, 54.0)
+
+
+def corrupt(payload: bytes, offset: int, fmt: str, value) -> bytes:
+    b = bytearray(payload)
+    struct.pack_into(fmt, b, offset, value)
+    return bytes(b)
+
+
+@pytest.mark.parametrize("mutate, reason", [
+    (lambda b: b[:10], "truncated"),
+    (lambda b: b[:-1], "bad_length"),
+    (lambda b: b"XXXX" + b[4:], "bad_magic"),
+    (lambda b: corrupt(b, 4, "<H", 2), "bad_version"),
+    (lambda b: corrupt(b, 16, "<I", 0), "bad_count"),
+    (lambda b: corrupt(b, 20, "<d", float("nan")), "non_finite"),
+    (lambda b: corrupt(b, 52, "<d", -5.0), "bad_validity"),
+    (lambda b: corrupt(b, 61 + 6, "<d", float("inf")), "non_finite"),       # first amplitude
+    (lambda b: corrupt(b, 61 + 6, "<d", 500.0), "absurd_amplitude"),
+    (lambda b: corrupt(b, 61 + 6 + 8 * 200, "<d", -1.0), "bad_frequency"),  # first ω
+    (lambda b: corrupt(b, 61 + 6 + 16 * 200, "<d", 5.0), "off_dispersion"),  # first k
+    (lambda b: b + bytes(MAX_PAYLOAD), "oversized"),
+])
+def test_decoder_rejects_bad_payloads_with_a_reason(forecast, mutate, reason):
+    with pytest.raises(ForecastDecodeError) as info:
+        decode_forecast(mutate(encode_forecast(forecast)))
+    assert info.value.reason == reason
+
+
+@settings(max_examples=300, suppress_health_check=[HealthCheck.too_slow], deadline=None)
+@given(st.binary(max_size=2048))
+def test_decoder_never_crashes_on_garbage(data):
+    try:
+        decode_forecast(data)
+    except ForecastDecodeError:
+        pass
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(min_value=0, max_value=6000), st.binary(min_size=1, max_size=8))
+def test_decoder_survives_any_byte_flip(offset, junk):
+    f = oracle_forecast(Sea.load("W1").components, None, None, valid_until=10.0)
+    b = bytearray(encode_forecast(f))
+    i = offset % len(b)
+    b[i:i + len(junk)] = junk
+    try:
+        g = decode_forecast(bytes(b))
+    except ForecastDecodeError:
+        return
+    assert np.all(np.isfinite(g.amplitude)) and g.valid_from <= g.valid_until
+
+
+def test_site_names_cannot_change_the_key():
+    assert forecast_key("moray") == "wavekeep/moray/forecast"
+    for bad in ("a/b", "*", "**", "x$y", ""):
+        with pytest.raises(ValueError):
+            check_site(bad)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def sessions():
+    import zenoh
+    net = load_network_config()
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    service = zenoh.open(zenoh_config(net, listen=[ep]))
+    vehicle = zenoh.open(zenoh_config(net, connect=[ep]))
+    try:
+        yield service, vehicle
+    finally:
+        vehicle.close()
+        service.close()
+
+
+def wait_for(cond, timeout=3.0, poll=None):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if poll:
+            poll()
+        if cond():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def test_forecast_reaches_the_handoff_and_garbage_does_not(sessions, forecast):
+    service, vehicle = sessions
+    handoff = ForecastHandoff()
+    said = []
+    link = ZenohForecastLink(vehicle, "moray", handoff, say=lambda sev, text: said.append(text))
+    pub = service.declare_publisher(forecast_key("moray"))
+    time.sleep(0.2)                       # declarations propagate asynchronously (NOTES.md)
+    bad = [b"garbage", b"", encode_forecast(forecast)[:-3], bytes(MAX_PAYLOAD + 10)]
+    for payload in bad:
+        pub.put(payload)
+        assert wait_for(lambda: link.received >= bad.index(payload) + 1, poll=link.poll)
+    assert handoff.newest() is None and sum(link.rejected.values()) == len(bad)
+    pub.put(encode_forecast(forecast))
+    assert wait_for(lambda: handoff.newest() is not None, poll=link.poll)
+    assert handoff.current(30.0).forecast.seq == 3
+    assert handoff.current(61.0) is None  # stale after its validity
+    link.close()
+
+
+def test_liveliness_of_the_service_is_reported(sessions):
+    service, vehicle = sessions
+    said = []
+    link = ZenohForecastLink(vehicle, "moray", ForecastHandoff(), say=lambda sev, text: said.append(text))
+    token = service.liveliness().declare_token(service_token_key("moray"))
+    assert wait_for(lambda: link.service_alive, poll=link.poll)
+    token.undeclare()
+    assert wait_for(lambda: not link.service_alive, poll=link.poll)
+    assert said == ["Forecast service up", "Forecast service lost"]
+    link.close()
+
+
+def test_poll_never_blocks(sessions):
+    _, vehicle = sessions
+    link = ZenohForecastLink(vehicle, "moray", ForecastHandoff())
+    t0 = time.perf_counter()
+    for _ in range(1000):
+        link.poll()
+    assert (time.perf_counter() - t0) / 1000 < 2e-3
+    link.close()
+
+
+def test_network_config_defaults_to_loopback():
+    net = load_network_config()
+    eps = net["zenoh"]["service_listen"] + net["zenoh"]["connect"]
+    assert eps and all("127.0.0.1" in e for e in eps)
+    assert net["zenoh"]["multicast_scouting"] is False
+    cfg = zenoh_config(net, listen=["tcp/127.0.0.1:1"])
+    assert json.loads(cfg.get_json("scouting/multicast/enabled")) is False
