@@ -21,7 +21,7 @@ import numpy as np
 
 from firmware_py.physics.waves import WaveComponents
 
-__all__ = ["Forecast", "inject_spectral_noise", "oracle_forecast"]
+__all__ = ["Forecast", "inject_spectral_noise", "oracle_forecast", "derive_seeds"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,16 @@ class Forecast:
         return WaveComponents(np.asarray(self.amplitude, float), np.asarray(self.omega, float),
                               np.asarray(self.k, float), np.mod(phase, 2.0 * np.pi), float(self.water_depth),
                               bool(self.second_order))
+
+
+def derive_seeds(seed: int) -> tuple[int, int]:
+    """Independent streams for the sensor noise and the forecast error, derived from a run's seed.
+
+    Every process of a run (in-process runner, firmware, forecast service)
+    derives them the same way, so the same seed gives the same run.
+    """
+    sensor, forecast = np.random.SeedSequence(seed).spawn(2)
+    return int(sensor.generate_state(1)[0]), int(forecast.generate_state(1)[0])
 
 
 def inject_spectral_noise(values: np.ndarray, snr_db: float, rng: np.random.Generator) -> np.ndarray:

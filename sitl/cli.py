@@ -188,6 +188,42 @@ def cmd_thrust(args) -> int:
     return 0
 
 
+def cmd_forecast(args) -> int:
+    """The forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM."""
+    import signal
+    import threading
+
+    from bridge.forecast import derive_seeds, oracle_forecast
+    from bridge.forecast_service import ForecastService
+    from bridge.zenoh_net import load_network_config, open_session
+    from firmware_py.config import load_mission_config
+    from .sea import Sea
+
+    net = load_network_config(args.network)
+    site = args.site or net["site"]
+    sea = Sea.load(args.case, seed=args.seed)
+    oracle = None
+    if args.mode == "oracle":
+        _, forecast_seed = derive_seeds(sea.seed)
+        oracle = oracle_forecast(sea.components, args.snr_db, np.random.default_rng(forecast_seed))
+    x_vehicle = load_mission_config(args.mission)["setpoint"]["x"]
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    with open_session(net, "service") as session:
+        svc = ForecastService(session, site, args.mode, oracle=oracle, x_vehicle=x_vehicle,
+                              water_depth=sea.water_depth, rate_hz=args.rate, horizon_s=args.horizon,
+                              deep_water=args.deep_water)
+        print(f"wavekeep forecast: ready, site {site}, mode {args.mode}"
+              + (f" ({args.snr_db:g} dB error)" if args.snr_db is not None else ""), flush=True)
+        try:
+            svc.run(stop)
+        finally:
+            svc.close()
+    print(f"wavekeep forecast: stopped; {svc.counters}", flush=True)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -233,6 +269,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="normalised sticks in [-1, 1], or N / N m scaled by the vehicle's WK_TAU_MAX_*")
     p.add_argument("--arm", action="store_true", help="switch the vehicle to MANUAL and arm it first")
     p.set_defaults(func=cmd_thrust)
+
+    p = sub.add_parser("forecast", help="the wave forecast service (shore side) on zenoh")
+    _add_common(p)
+    p.add_argument("--site", default=None, help="site name for the key expressions (default: configs/network.yaml)")
+    p.add_argument("--mode", choices=("oracle", "dswp"), default="oracle")
+    p.add_argument("--snr-db", type=float, default=None, help="oracle: inject the paper's error at this SNR")
+    p.add_argument("--rate", type=_positive, default=2.0, help="forecasts per second (wall clock)")
+    p.add_argument("--horizon", type=_positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
+    p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
+    p.add_argument("--network", default="network", help="network config name or path")
+    p.set_defaults(func=cmd_forecast)
 
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)

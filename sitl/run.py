@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bridge.forecast import Forecast, oracle_forecast
+from bridge.forecast import Forecast, derive_seeds, oracle_forecast
 from firmware_py.config import load_mission_config, load_vehicle_config
 from firmware_py.firmware import Firmware
 from firmware_py.hal import InProcessSITLHAL
@@ -56,12 +56,6 @@ def run_label(controller: str, snr_db: float | None) -> str:
 class RunResult:
     results: dict
     timeseries: np.ndarray      # (ticks, len(TIMESERIES_COLUMNS))
-
-
-def _seeds(seed: int) -> tuple[int, int]:
-    """Independent streams for the sensors and the forecast error, derived from the run seed."""
-    sensor, forecast = np.random.SeedSequence(seed).spawn(2)
-    return int(sensor.generate_state(1)[0]), int(forecast.generate_state(1)[0])
 
 
 def _elevation_along(components, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
@@ -104,7 +98,7 @@ def build_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | 
     plant = Plant.from_configs(sea, vehicle, mission)
     if initial_eta is not None:
         plant.reset(eta=initial_eta)
-    sensor_seed, forecast_seed = _seeds(sea.seed)
+    sensor_seed, forecast_seed = derive_seeds(sea.seed)
     hal = InProcessSITLHAL(plant, params, 1.0 / rate, sensor_seed, clock)
     fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
                   T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])

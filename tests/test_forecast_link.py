@@ -167,3 +167,41 @@ def test_network_config_defaults_to_loopback():
     assert net["zenoh"]["multicast_scouting"] is False
     cfg = zenoh_config(net, listen=["tcp/127.0.0.1:1"])
     assert json.loads(cfg.get_json("scouting/multicast/enabled")) is False
+
+
+def test_service_oracle_forecasts_follow_the_buoy_clock_and_die_with_the_service(sessions):
+    """Plant-side buoy → service (oracle) → vehicle subscriber; the service going away is
+    reported, and its last forecast stops being valid at the end of its window."""
+    import zenoh
+    from bridge.forecast_service import ForecastService
+    from bridge.zenoh_net import load_network_config
+    from sitl.buoy_publisher import BuoyPublisher
+
+    service_session, vehicle = sessions
+    sea = Sea.load("W2")
+    exact = oracle_forecast(sea.components, None, None)
+    svc = ForecastService(service_session, "moray", "oracle", oracle=exact, rate_hz=50.0, horizon_s=2.0)
+    buoy = BuoyPublisher(vehicle, "moray", sea, publish_every_s=0.5)
+    handoff = ForecastHandoff()
+    said = []
+    link = ZenohForecastLink(vehicle, "moray", handoff, say=lambda s, text: said.append(text))
+    time.sleep(0.2)
+    t = 0.0
+    for _ in range(60):                         # 3 s of simulated time in 50 ms steps
+        t += 0.05
+        buoy.advance(t)
+        svc.step()
+        link.poll()
+        time.sleep(0.005)
+    assert wait_for(lambda: handoff.newest() is not None, poll=lambda: (svc.step(), link.poll()))
+    f = handoff.newest()
+    assert f.valid_until == pytest.approx(svc.now + 2.0) and svc.now <= t + 1e-9
+    np.testing.assert_array_equal(f.phase, exact.phase)
+    assert handoff.current(svc.now) is not None
+    # The service dies: liveliness is lost, and after its window the forecast is stale
+    svc.close()
+    assert wait_for(lambda: not link.service_alive, poll=link.poll)
+    assert "Forecast service lost" in said
+    assert handoff.current(f.valid_until + 0.05) is None
+    buoy.close()
+    link.close()
