@@ -103,7 +103,7 @@ class ForecastService:
         sel = self._t >= self._t[-1] - self.window
         try:
             return predict_from_buoy(self._t[sel], self._eta[sel], self.buoy_x, self.x_vehicle, self.water_depth,
-                                     window_s=self.window, deep_water=self.deep_water, seq=self.seq)
+                                     window_s=self.window, deep_water=self.deep_water, oversample=2, seq=self.seq)
         except ValueError as exc:
             self.counters["predict_failed"] += 1
             self.last_error = str(exc)

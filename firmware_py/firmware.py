@@ -31,7 +31,7 @@ from .physics.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_lo
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 
-__all__ = ["TickRecord", "PilotInput", "Firmware"]
+__all__ = ["TickRecord", "TICK_COLUMNS", "tick_row", "PilotInput", "Firmware"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +48,22 @@ class TickRecord:
     tau_e_hat: np.ndarray      # predicted wave load at the end of the period (zeros without a forecast)
     ff_active: bool
     forecast_seq: int
+
+
+TICK_COLUMNS = (
+    ["x_hat", "z_hat", "theta_hat", "u_hat", "w_hat", "q_hat", "sigma_x", "sigma_z", "sigma_theta"]
+    + ["sp_x", "sp_z", "sp_theta"]
+    + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
+    + [f"pwm{i}" for i in range(1, 9)]
+    + ["ff_active"]
+)
+"""What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
+
+
+def tick_row(r: TickRecord) -> list[float]:
+    """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
+    return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
+            float(r.ff_active)]
 
 
 @dataclass
@@ -109,6 +125,12 @@ class Firmware:
         self.loop_rate_hz = loop_rate_hz
         self.tasks = [Task("control", loop_rate_hz, self.control_task)]
         self.scheduler = Scheduler(hal.clock, loop_rate_hz, self.tasks)
+
+    def rebuild_scheduler(self, t0_ns: int | None = None) -> None:
+        """A fresh scheduler on the HAL's (possibly new) clock, its grid starting at ``t0_ns``."""
+        self.scheduler = Scheduler(self.hal.clock, self.loop_rate_hz, self.tasks)
+        if t0_ns is not None:
+            self.scheduler.start(t0_ns)
 
     def add_task(self, task: Task) -> None:
         """Add a task (GCS link, SITL world...) after the control task; only before the loop starts."""

@@ -104,6 +104,7 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("SR0_EXTRA2", 0, 50, "Hz", "VFR_HUD"),
     ParamDef("SR0_EXTRA3", 0, 50, "Hz", "SYSTEM_TIME"),
     # Simulated sensors (SITL HAL)
+    ParamDef("SIM_JSON_TMO", 0.05, 5.0, "s", "JSON SITL HAL: plant silent this long → sensors unhealthy"),
     ParamDef("SIM_POS_RND", 0.0, 10.0, "m", "position fix noise (1 sigma), e.g. an acoustic positioning system"),
     ParamDef("SIM_POS_RATE", 0.1, 100.0, "Hz", "position fix rate"),
     ParamDef("SIM_DEPTH_RND", 0.0, 1.0, "m", "pressure-depth noise (1 sigma), Bar30-like"),

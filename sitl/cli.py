@@ -281,6 +281,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--network", default="network", help="network config name or path")
     p.set_defaults(func=cmd_forecast)
 
+    p = sub.add_parser("sim", help="SITL: plant, forecast service and firmware as processes, flown over MAVLink")
+    _add_common(p)
+    p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
+    p.add_argument("--forecast-snr-db", type=float, default=None)
+    p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle", help="forecast service mode")
+    p.add_argument("--speedup", type=_positive, default=None, help="X times real time; default: as fast as the CPU allows")
+    p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's (600)")
+    p.add_argument("--plant-port", type=int, default=9002)
+    p.add_argument("--gcs-port", type=int, default=14550)
+    p.add_argument("--zenoh-port", type=int, default=7447)
+    p.add_argument("--out", default="runs/sim", help="run folder")
+    p.set_defaults(func=cmd_sim)
+
+    p = sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)")
+    p = sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)")
+
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)
     p.add_argument("--duration", type=_positive, default=600.0, help="record length (s)")
@@ -298,7 +314,38 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def cmd_sim(args) -> int:
+    """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
+    from .launcher import LaunchError, SimOptions, launch
+    from .metrics import format_table
+
+    opt = SimOptions(case=args.case, controller=args.controller, snr_db=args.forecast_snr_db,
+                     forecast_mode=args.forecast, speedup=args.speedup, duration=args.duration, seed=args.seed,
+                     out=args.out, plant_port=args.plant_port, gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
+    try:
+        r = launch(opt, progress=None)
+    except LaunchError as exc:
+        print(f"wavekeep sim: {exc}", file=sys.stderr)
+        return exc.status
+    print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
+          f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
+    metrics = {"rmse": {**r["rmse"], "pitch_deg": float(np.degrees(r["rmse"]["pitch"]))},
+               "max_error": {**r["max_abs_error"], "pitch_deg": float(np.degrees(r["max_abs_error"]["pitch"]))},
+               "mean_power_w": r["mean_power_w"]}
+    print(format_table({r["label"]: metrics}))
+    print(f"wrote {args.out}: results.json, timeseries.csv, time_history.png, mission.tlog, *.log")
+    return 0
+
+
+DELEGATED = {"plant": "sitl.physics_server", "firmware": "firmware_py.app"}
+"""Subcommands that are programs of their own (separate processes in ``wavekeep sim``)."""
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in DELEGATED:
+        import importlib
+        return importlib.import_module(DELEGATED[argv[0]]).main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

@@ -30,8 +30,9 @@ class LiveSim:
                  speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None):
         from firmware_py.gcs import MavlinkLink
 
+        self.speedup = float(speedup)
         self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
-                                                 clock=ScaledClock(speedup))
+                                                 clock=ScaledClock(self.speedup))
         self.firmware = self.setup.firmware
         self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)
         rate = self.setup.rate_hz
@@ -41,6 +42,9 @@ class LiveSim:
         self._thread: threading.Thread | None = None
 
     def start(self) -> "LiveSim":
+        # The firmware's clock starts now, at the plant's time 0, and the grid with it
+        self.setup.hal.clock = ScaledClock(self.speedup, start_ns=0)
+        self.firmware.rebuild_scheduler(t0_ns=0)
         self.link.start()
         self._thread = threading.Thread(target=self._run, name="wavekeep-live", daemon=True)
         self._thread.start()

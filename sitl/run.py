@@ -18,7 +18,7 @@ import numpy as np
 
 from bridge.forecast import Forecast, derive_seeds, oracle_forecast
 from firmware_py.config import load_mission_config, load_vehicle_config
-from firmware_py.firmware import Firmware
+from firmware_py.firmware import TICK_COLUMNS, Firmware, tick_row
 from firmware_py.hal import InProcessSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
@@ -35,15 +35,13 @@ __all__ = ["CONTROLLERS", "MissionSetup", "build_mission", "RunResult", "run_mis
 
 CONTROLLERS = ("cpd", "cpd_ff")
 
-TIMESERIES_COLUMNS = (
-    ["t", "x", "z", "theta", "u", "w", "q"]
-    + ["x_hat", "z_hat", "theta_hat", "u_hat", "w_hat", "q_hat", "sigma_x", "sigma_z", "sigma_theta"]
-    + ["sp_x", "sp_z", "sp_theta"]
-    + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M"]
-    + ["tauE_X", "tauE_Z", "tauE_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
-    + [f"pwm{i}" for i in range(1, 9)]
-    + ["wave_eta", "forecast_eta", "ff_active"]
+TIMESERIES_COLUMNS = tuple(
+    ["t", "x", "z", "theta", "u", "w", "q"]          # truth at the tick
+    + TICK_COLUMNS                                     # what the firmware's tick saw and did
+    + ["tauE_X", "tauE_Z", "tauE_M"]                   # true wave load at the end of the tick's period
+    + ["wave_eta", "forecast_eta"]                     # elevations at the vehicle's x
 )
+"""Columns of ``timeseries.csv``: one row per control tick."""
 
 
 def run_label(controller: str, snr_db: float | None) -> str:
@@ -58,7 +56,7 @@ class RunResult:
     timeseries: np.ndarray      # (ticks, len(TIMESERIES_COLUMNS))
 
 
-def _elevation_along(components, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
+def elevation_along(components, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
     from firmware_py.physics.waves import elevation
     return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
 
@@ -147,22 +145,20 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
             if r is None:
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
-            log[k] = [truth.t, *truth.eta, *truth.nu, *r.x_hat, *r.sigma[:3], *r.setpoint,
-                      *r.control.tau, *r.control.tau_ff, *plant.tau_E, *r.tau_e_hat, *r.mix.pwm,
-                      np.nan, np.nan, float(r.ff_active)]
+            log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
     col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
-    log[:, col["wave_eta"]] = _elevation_along(sea.components, log[:, 1], log[:, 0])
+    log[:, col["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
     if forecast is not None:
-        log[:, col["forecast_eta"]] = _elevation_along(forecast.components(), log[:, 1], log[:, 0])
+        log[:, col["forecast_eta"]] = elevation_along(forecast.components(), log[:, 1], log[:, 0])
     stats = fw.scheduler.stats()
     errors = stats["tasks"]["control"].get("errors", 0)
     if errors:
         raise RuntimeError(f"control task raised {errors} time(s): {stats['tasks']['control'].get('last_error')}")
 
-    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, 19:22])
+    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, col["tau_X"]:col["tau_M"] + 1])
     ekf = fw.ekf
     results = {
         "case": sea.name,
@@ -178,11 +174,12 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
         "tick_overruns": stats["overruns"],
         "label": run_label(controller, snr_db),
         "hs_target_m": sea.hs_target,
-        "hs_realised_m": float(4.0 * np.std(_elevation_along(sea.components, np.full(n, setpoint[0]), log[:, 0]))),
+        "hs_realised_m": float(4.0 * np.std(elevation_along(sea.components, np.full(n, setpoint[0]), log[:, 0]))),
         "ekf": {"rejected": dict(ekf.rejected), "accepted": dict(ekf.accepted),
                 "rms_error": dict(zip(("x", "z", "theta", "u", "w", "q"),
-                                      np.sqrt(np.mean((log[:, 7:13] - log[:, 1:7]) ** 2, axis=0)).tolist()))},
-        "ff_active_fraction": float(np.mean(log[:, -1])),
+                                      np.sqrt(np.mean((log[:, col["x_hat"]:col["q_hat"] + 1] - log[:, 1:7]) ** 2,
+                                                      axis=0)).tolist()))},
+        "ff_active_fraction": float(np.mean(log[:, col["ff_active"]])),
         "control_tick": stats["tasks"]["control"]["compute"],
         "wall_time_s": wall,
         "speed_x_realtime": duration / wall if wall > 0 else None,

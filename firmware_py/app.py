@@ -1,0 +1,181 @@
+"""``wavekeep firmware``: the firmware as its own process, flying a vehicle through a networked HAL.
+
+    wavekeep firmware --hal sitl:127.0.0.1:9002 --mavlink udpout:127.0.0.1:14550 [--speedup X]
+
+Start-up, in order: parameters (``configs/firmware/params.yaml`` plus
+``--set NAME=VALUE``), the HAL (waits for the plant's first state), the
+MAVLink link, the forecast subscriber (zenoh, unless ``--no-forecast``); then
+the first control tick (the estimator initialises), a garbage collection and
+``gc.freeze()`` (NOTES.md: a full collection would cost more than a tick), and
+the 20 Hz loop until SIGINT/SIGTERM.
+
+``--hold-until-armed`` keeps simulated time still after the first tick until a
+ground station has armed the vehicle, so a scripted start (the launcher's) is
+the same at every speed-up: the mission's clock starts when the vehicle is
+armed, as in the in-process runner.
+
+Time: without ``--speedup`` the loop runs in lockstep as fast as the plant
+answers (simulated clock); ``--speedup X`` paces it at X times real time on the
+wall clock.
+"""
+from __future__ import annotations
+
+import argparse
+import gc
+import os
+import signal
+import sys
+import threading
+import time
+
+__all__ = ["main"]
+
+
+def _parse_hal(text: str) -> tuple[str, int]:
+    kind, _, rest = text.partition(":")
+    host, _, port = rest.rpartition(":")
+    if kind != "sitl" or not host or not port.isdigit():
+        raise argparse.ArgumentTypeError(f"--hal must look like sitl:HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def _parse_set(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--set expects NAME=NUMBER, got {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="wavekeep firmware", description=__doc__.split("\n")[0])
+    p.add_argument("--hal", type=_parse_hal, default=("127.0.0.1", 9002), help="sitl:HOST:PORT of the physics server")
+    p.add_argument("--mavlink", action="append", help="MAVLink endpoint (repeatable); default udpout:127.0.0.1:14550")
+    p.add_argument("--speedup", type=float, default=None, help="pace at X times real time; default: lockstep, unpaced")
+    p.add_argument("--seed", type=int, default=0, help="run seed (sensor noise stream)")
+    p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
+    p.add_argument("--params", default="params", help="parameter defaults (configs/firmware/NAME.yaml or a path)")
+    p.add_argument("--vehicle", default="bluerov2_heavy")
+    p.add_argument("--mission", default="station_keeping", help="the station the vehicle keeps (its setpoint)")
+    p.add_argument("--network", default="network", help="zenoh network config (configs/network.yaml)")
+    p.add_argument("--site", default=None)
+    p.add_argument("--no-forecast", action="store_true", help="no zenoh forecast subscriber")
+    p.add_argument("--signing-key", default=None, help="file with the 32-byte MAVLink 2 signing key")
+    p.add_argument("--hold-until-armed", action="store_true",
+                   help="keep simulated time still after the first tick until the vehicle is armed")
+    p.add_argument("--realtime", action="store_true", help="try SCHED_FIFO for the loop (falls back quietly)")
+    p.add_argument("--log", default=None, help="write every tick (t + TICK_COLUMNS) to this CSV at exit, "
+                   "and the scheduler's statistics beside it as JSON")
+    return p
+
+
+def _try_realtime() -> str:
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+        return "SCHED_FIFO"
+    except (PermissionError, AttributeError, OSError):
+        return "normal scheduling (SCHED_FIFO not permitted)"
+
+
+def _write_log(path: str, rows: list[list[float]], stats: dict) -> None:
+    import json
+    from pathlib import Path
+
+    import numpy as np
+
+    from .firmware import TICK_COLUMNS
+    header = ",".join(["t", *TICK_COLUMNS])
+    np.savetxt(path, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), delimiter=",", header=header,
+               comments="", fmt="%.17g")
+    Path(path).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    from bridge.configfile import ConfigError
+    from bridge.forecast import derive_seeds
+    from .config import load_mission_config, load_vehicle_config
+    from .firmware import Firmware
+    from .gcs import MavlinkLink, load_signing_key
+    from .hal_json import JSONSITLHAL
+    from .params import load_params
+    from .physics.thrusters import T200Curve, ThrusterLayout
+    from .physics.vehicle import VehicleParams
+    from .scheduler import ScaledClock, Task
+
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        params = load_params(args.params, dict(args.set))
+        vcfg = load_vehicle_config(args.vehicle)
+        mcfg = load_mission_config(args.mission)
+        key = load_signing_key(args.signing_key) if args.signing_key else None
+    except (ConfigError, ValueError, OSError) as exc:
+        print(f"wavekeep firmware: {exc}", file=sys.stderr)
+        return 2
+    rate = mcfg["control_rate"]
+    sp = mcfg["setpoint"]
+    sensor_seed, _ = derive_seeds(args.seed)
+    hal = JSONSITLHAL(args.hal, params, 1.0 / rate, sensor_seed, timeout_s=params["SIM_JSON_TMO"])
+    try:
+        hal.start()
+    except TimeoutError as exc:
+        print(f"wavekeep firmware: {exc}", file=sys.stderr)
+        return 3
+    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
+                  T200Curve.from_config(vcfg["thrusters"]), [sp["x"], sp["depth"], sp["pitch"]], rate,
+                  mcfg["plant"]["strips"])
+    rows: list[list[float]] = []
+    if args.log:
+        from .firmware import tick_row
+        fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
+    link = MavlinkLink(fw, args.mavlink or ["udpout:127.0.0.1:14550"], signing_key=key)
+    session = forecast_link = None
+    if not args.no_forecast:
+        from bridge.zenoh_net import load_network_config, open_session
+        from .forecast_link import ZenohForecastLink
+        net = load_network_config(args.network)
+        session = open_session(net, "vehicle")
+        forecast_link = ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
+    try:
+        link.start()
+        # First tick on simulated time: the estimator initialises from the plant's t = 0 state.
+        if forecast_link is not None:
+            fw.add_task(Task("forecast", rate, forecast_link.poll))
+        fw.add_task(Task("gcs", rate, link.update))
+        fw.scheduler.run_tick()
+        if args.hold_until_armed:
+            while not fw.armed and not stop.is_set():
+                if forecast_link is not None:
+                    forecast_link.poll()
+                link.update(fw.scheduler.next_slot_ns() - fw.scheduler.period_ns)
+                time.sleep(0.005)
+        if args.speedup:
+            # From here on, pace on the wall clock from the next slot's simulated time
+            start = fw.scheduler.next_slot_ns()
+            hal.clock = ScaledClock(args.speedup, start_ns=start)
+            fw.rebuild_scheduler(t0_ns=start)
+        realtime = _try_realtime() if args.realtime else "normal scheduling"
+        gc.collect()
+        gc.freeze()
+        print(f"wavekeep firmware: ready, {'lockstep' if not args.speedup else f'{args.speedup:g}x real time'}, "
+              f"{realtime}", flush=True)
+        fw.scheduler.run(stop=stop.is_set)
+    finally:
+        stats = fw.scheduler.stats()
+        link.stop()
+        if forecast_link is not None:
+            forecast_link.close()
+        if session is not None:
+            session.close()
+        hal.close()
+        if args.log:
+            _write_log(args.log, rows, stats)
+        print(f"wavekeep firmware: stopped after {stats['ticks']} ticks, {stats['overruns']} overruns; "
+              f"link {link.counters}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,320 @@
+"""``wavekeep sim``: the plant, the forecast service and the firmware as separate processes, flown over MAVLink.
+
+Like ``sim_vehicle.py`` for ArduPilot: the launcher starts
+
+* the physics server (``wavekeep plant``: the sea and the vehicle, ArduPilot's
+  JSON SITL protocol on UDP, the wave buoy on zenoh),
+* the forecast service (``wavekeep forecast``, zenoh; C-PD+FF only),
+* the firmware (``wavekeep firmware``: JSON SITL HAL, MAVLink, forecast subscriber),
+
+waits until each says it is ready, and then acts as a ground station over
+MAVLink: waits for the heartbeat (and, for C-PD+FF, for a valid forecast),
+switches to GUIDED on the mission's station, arms, and follows the mission
+until the vehicle's clock reaches its end. The firmware holds simulated time
+after its first tick until it is armed, so the mission is the same at every
+speed-up and matches ``wavekeep run`` for the same seed.
+
+Results: ``DIR/results.json`` (the ``wavekeep run`` schema), ``timeseries.csv``,
+``mission.tlog`` (every MAVLink message the GCS saw), the figure, and each
+process's log. Ctrl-C, or any child dying, stops every process; the exit status
+says what happened (0 done, 1 a child failed, 2 bad arguments or ports in use,
+130 interrupted).
+"""
+from __future__ import annotations
+
+import errno
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["SimOptions", "LaunchError", "launch"]
+
+
+class LaunchError(RuntimeError):
+    def __init__(self, message: str, status: int = 1):
+        super().__init__(message)
+        self.status = status
+
+
+@dataclass
+class SimOptions:
+    case: str = "W3"
+    controller: str = "cpd_ff"
+    snr_db: float | None = None
+    forecast_mode: str = "oracle"
+    speedup: float | None = None
+    duration: float | None = None
+    seed: int | None = None
+    out: str = "runs/sim"
+    plant_port: int = 9002
+    gcs_port: int = 14550
+    zenoh_port: int = 7447
+    ready_timeout_s: float = 60.0
+    extra_params: list[str] = field(default_factory=list)
+
+
+def _check_udp_port(port: int, what: str) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise LaunchError(f"UDP port {port} ({what}) is in use: pick another with the --*-port options", 2)
+            raise
+
+
+def _check_tcp_port(port: int, what: str) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise LaunchError(f"TCP port {port} ({what}) is in use: pick another with the --*-port options", 2)
+            raise
+
+
+class _Child:
+    """A child process whose stdout/stderr go to a log file; 'ready' is a line it prints."""
+
+    def __init__(self, name: str, argv: list[str], log: Path, env: dict):
+        self.name = name
+        self.log_path = log
+        self._log = open(log, "w")
+        self.proc = subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env,
+                                     start_new_session=True)
+
+    def ready(self) -> bool:
+        try:
+            return "ready" in self.log_path.read_text()
+        except OSError:
+            return False
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, timeout: float = 10.0) -> int | None:
+        if self.alive():
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait(5)
+        self._log.close()
+        return self.proc.returncode
+
+    def tail(self, n: int = 8) -> str:
+        try:
+            return "\n".join(self.log_path.read_text().splitlines()[-n:])
+        except OSError:
+            return ""
+
+
+def _wait_ready(children: list[_Child], timeout: float) -> None:
+    end = time.monotonic() + timeout
+    pending = list(children)
+    while pending:
+        for c in list(pending):
+            if not c.alive():
+                raise LaunchError(f"{c.name} exited with status {c.proc.returncode} before it was ready:\n{c.tail()}")
+            if c.ready():
+                pending.remove(c)
+        if time.monotonic() > end:
+            raise LaunchError(f"{', '.join(c.name for c in pending)} not ready after {timeout:g} s")
+        time.sleep(0.05)
+
+
+def launch(opt: SimOptions, progress=None) -> dict:
+    """Run one mission across processes; returns the results document (also written to DIR)."""
+    os.environ["MAVLINK20"] = "1"
+    from pymavlink import mavutil
+
+    from bridge.forecast import derive_seeds, oracle_forecast
+    from firmware_py.config import load_mission_config
+    from firmware_py.modes import Mode
+    from .metrics import DOF, station_keeping_metrics
+    from .progress import ProgressBar
+    from .run import CONTROLLERS, TIMESERIES_COLUMNS, RunResult, run_label, write_run
+    from .sea import Sea
+
+    if opt.controller not in CONTROLLERS:
+        raise LaunchError(f"controller must be one of {CONTROLLERS}", 2)
+    sea = Sea.load(opt.case, seed=opt.seed)     # validates the case before anything starts
+    seed = sea.seed
+    mcfg = load_mission_config("station_keeping")
+    duration = mcfg["duration"] if opt.duration is None else float(opt.duration)
+    rate = mcfg["control_rate"]
+    sp = mcfg["setpoint"]
+    out = Path(opt.out)
+    out.mkdir(parents=True, exist_ok=True)
+    _check_udp_port(opt.plant_port, "plant")
+    _check_udp_port(opt.gcs_port, "GCS")
+    ff = opt.controller == "cpd_ff"
+    if ff:
+        _check_tcp_port(opt.zenoh_port, "zenoh")
+
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    netcfg = out / "network.yaml"
+    netcfg.write_text(json.dumps({"site": "sim", "zenoh": {
+        "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],
+        "connect": [f"tcp/127.0.0.1:{opt.zenoh_port}"], "multicast_scouting": False,
+        "gossip_scouting": True, "scouting_delay_ms": 0}}))
+    cli = [sys.executable, "-m", "sitl.cli"]
+    children: list[_Child] = []
+    gcs = None
+    interrupted = False
+    try:
+        if ff:
+            fc = cli + ["forecast", "--case", opt.case, "--seed", str(seed), "--mode", opt.forecast_mode,
+                        "--network", str(netcfg), "--horizon", str(duration + 60.0)]
+            if opt.snr_db is not None:
+                fc += ["--snr-db", str(opt.snr_db)]
+            children.append(_Child("forecast", fc, out / "forecast.log", env))
+            _wait_ready(children, opt.ready_timeout_s)
+        plant = cli + ["plant", "--case", opt.case, "--seed", str(seed), "--port", str(opt.plant_port),
+                       "--log", str(out / "plant_truth.csv")]
+        if ff:
+            plant += ["--buoy-network", str(netcfg)]
+        children.append(_Child("plant", plant, out / "plant.log", env))
+        _wait_ready(children, opt.ready_timeout_s)
+        firmware = cli + ["firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
+                          "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed),
+                          "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
+        if opt.speedup:
+            firmware += ["--speedup", str(opt.speedup)]
+        firmware += ["--set", f"WK_FF_ENABLE={1 if ff else 0}"]
+        if not ff:
+            firmware += ["--no-forecast"]
+        for s in opt.extra_params:
+            firmware += ["--set", s]
+        children.append(_Child("firmware", firmware, out / "firmware.log", env))
+        _wait_ready(children, opt.ready_timeout_s)
+
+        # ---------------------------------------------------------------- the ground station
+        gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{opt.gcs_port}", source_system=255,
+                                         source_component=190, dialect="ardupilotmega")
+        gcs.setup_logfile(str(out / "mission.tlog"))
+
+        def pump(until, what: str, timeout: float = 30.0):
+            """Read messages until ``until(msg)`` is true; watch the children meanwhile."""
+            end = time.monotonic() + timeout
+            last_hb = 0.0
+            while time.monotonic() < end:
+                if time.monotonic() - last_hb > 0.5:
+                    gcs.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID,
+                                           0, 0, 0)
+                    last_hb = time.monotonic()
+                for c in children:
+                    if not c.alive():
+                        raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
+                m = gcs.recv_match(blocking=True, timeout=0.05)
+                if m is not None and m.get_type() != "BAD_DATA" and until(m):
+                    return m
+            raise LaunchError(f"timed out waiting for {what}")
+
+        pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
+        target = 1
+        if ff:
+            pump(lambda m: m.get_type() == "NAMED_VALUE_FLOAT" and m.name.rstrip("\x00") == "FF_AGE"
+                 and m.value >= 0, "a valid forecast on the vehicle", timeout=60.0)
+
+        def command(cmd: int, *params: float) -> None:
+            p = list(params) + [0.0] * (7 - len(params))
+            gcs.mav.command_long_send(target, 1, cmd, 0, *p)
+            ack = pump(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, f"COMMAND_ACK {cmd}")
+            if ack.result != 0:
+                raise LaunchError(f"the vehicle refused command {cmd} (MAV_RESULT {ack.result})")
+
+        command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, 1, int(Mode.GUIDED))
+        gcs.mav.set_position_target_local_ned_send(0, target, 1, mavutil.mavlink.MAV_FRAME_LOCAL_NED,
+                                                   0b0000_1111_1111_1000, sp["x"], 0.0, sp["depth"],
+                                                   0, 0, 0, 0, 0, 0, 0, 0)
+        time.sleep(0.2)
+        command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        t_wall0 = time.monotonic()
+        end_ms = int(round(duration * 1000))
+        with ProgressBar(duration, f"sim {sea.name} {run_label(opt.controller, opt.snr_db)}",
+                         enabled=progress) as bar:
+            def mission_over(m) -> bool:
+                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
+                    bar.update(m.time_boot_ms / 1000.0)
+                    return m.time_boot_ms >= end_ms
+                return False
+            pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
+        wall = time.monotonic() - t_wall0
+        command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+    except KeyboardInterrupt:
+        interrupted = True
+        raise LaunchError("interrupted", 130)
+    finally:
+        statuses = {c.name: c.stop() for c in reversed(children)}
+        if gcs is not None:
+            gcs.close()
+    # ------------------------------------------------------------------ results, as wavekeep run
+    truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
+    ticks = np.loadtxt(out / "firmware_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
+    n = int(round(duration * rate)) - 1
+    forecast = None
+    if ff:
+        _, forecast_seed = derive_seeds(seed)
+        forecast = oracle_forecast(sea.components, opt.snr_db, np.random.default_rng(forecast_seed))
+    log = _merge_logs(truth, ticks, n, sea, forecast)
+    col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
+    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
+    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, col["tau_X"]:col["tau_M"] + 1])
+    fw_stats = {}
+    try:
+        fw_stats = json.loads((out / "firmware_ticks.json").read_text())
+    except OSError:
+        pass
+    results = {
+        "case": sea.name, "controller": opt.controller,
+        "forecast_snr_db": opt.snr_db if opt.controller == "cpd_ff" else None,
+        "seed": seed, "duration_s": duration, "rate_hz": rate,
+        "rmse": {k: metrics["rmse"][k] for k in DOF},
+        "max_abs_error": {k: metrics["max_error"][k] for k in DOF},
+        "mean_power_w": metrics["mean_power_w"], "energy_j": metrics["energy_j"],
+        "tick_overruns": fw_stats.get("overruns", 0),
+        "label": run_label(opt.controller, opt.snr_db),
+        "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
+        "speedup": opt.speedup, "wall_time_s": wall,
+        "speed_x_realtime": duration / wall if wall > 0 else None,
+        "processes": statuses,
+    }
+    write_run(RunResult(results, log), out)
+    return results
+
+
+def _merge_logs(truth: np.ndarray, ticks: np.ndarray, n: int, sea, forecast) -> np.ndarray:
+    """Join the plant's truth log and the firmware's tick log into the ``wavekeep run`` time series.
+
+    Row k (k = 1 … n) holds the truth at t_k, what the firmware's tick k saw and did
+    (:data:`~firmware_py.firmware.TICK_COLUMNS`), and the wave load at the end of that
+    tick's period — as :func:`sitl.run.run_mission` logs it.
+    """
+    from .run import TIMESERIES_COLUMNS, elevation_along
+
+    col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
+    h = truth[1, 0] - truth[0, 0]
+    by_tick = {int(k): i for i, k in enumerate(np.rint(ticks[:, 0] / h))}
+    rows = [k for k in range(1, n + 1) if k in by_tick and k + 1 < truth.shape[0]]
+    if len(rows) < n:
+        raise LaunchError(f"the logs cover {len(rows)} of the mission's {n} ticks")
+    ks = np.array(rows)
+    log = np.empty((n, len(TIMESERIES_COLUMNS)))
+    log[:, 0:7] = truth[ks, 0:7]
+    log[:, 7:7 + ticks.shape[1] - 1] = ticks[[by_tick[k] for k in rows], 1:]
+    log[:, col["tauE_X"]:col["tauE_M"] + 1] = truth[ks + 1, 7:10]
+    log[:, col["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
+    log[:, col["forecast_eta"]] = (elevation_along(forecast.components(), log[:, 1], log[:, 0])
+                                   if forecast is not None else np.nan)
+    return log
