@@ -11,6 +11,8 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'
+	# A headless MAVProxy for the ground-station acceptance test (its GUI dependencies are not needed)
+	$(BIN)/pip install --quiet --no-deps MAVProxy==1.8.75 pyserial
 	touch $(STAMP)
 
 run: $(STAMP)

@@ -145,22 +145,28 @@ def main(argv: list[str] | None = None) -> int:
             fw.add_task(Task("forecast", rate, forecast_link.poll))
         fw.add_task(Task("gcs", rate, link.update))
         fw.scheduler.run_tick()
+        realtime = _try_realtime() if args.realtime else "normal scheduling"
+        gc.collect()
+        gc.freeze()
+        print(f"wavekeep firmware: ready, {'lockstep' if not args.speedup else f'{args.speedup:g}x real time'}, "
+              f"{realtime}{', holding until armed' if args.hold_until_armed else ''}", flush=True)
         if args.hold_until_armed:
+            # Simulated time stands still; the link's telemetry (heartbeat, streams) runs on
+            # wall time meanwhile so a ground station can see and arm the vehicle.
+            frozen = fw.scheduler.next_slot_ns() - fw.scheduler.period_ns
+            wall0 = time.monotonic_ns()
             while not fw.armed and not stop.is_set():
                 if forecast_link is not None:
                     forecast_link.poll()
-                link.update(fw.scheduler.next_slot_ns() - fw.scheduler.period_ns)
+                link.update(frozen + time.monotonic_ns() - wall0)
                 time.sleep(0.005)
+            link.restart_streams(fw.scheduler.next_slot_ns())
+            fw.refresh_prediction()
         if args.speedup:
             # From here on, pace on the wall clock from the next slot's simulated time
             start = fw.scheduler.next_slot_ns()
             hal.clock = ScaledClock(args.speedup, start_ns=start)
             fw.rebuild_scheduler(t0_ns=start)
-        realtime = _try_realtime() if args.realtime else "normal scheduling"
-        gc.collect()
-        gc.freeze()
-        print(f"wavekeep firmware: ready, {'lockstep' if not args.speedup else f'{args.speedup:g}x real time'}, "
-              f"{realtime}", flush=True)
         fw.scheduler.run(stop=stop.is_set)
     finally:
         stats = fw.scheduler.stats()

@@ -119,6 +119,7 @@ class Firmware:
         self._motor_test: MotorTest | None = None
         self._gcs_last_seen: float | None = None
         self._pending: tuple | None = None
+        self._pending_t: float | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
         self._ff_was_active = False
@@ -131,6 +132,17 @@ class Firmware:
         self.scheduler = Scheduler(self.hal.clock, self.loop_rate_hz, self.tasks)
         if t0_ns is not None:
             self.scheduler.start(t0_ns)
+
+    def refresh_prediction(self) -> None:
+        """Re-take the forecast's flow for the pending estimator prediction from the newest forecast.
+
+        Between ticks (a start held until arming) a forecast may arrive after the last
+        tick looked; this makes the next prediction use it, so a networked start and an
+        in-process start predict the same way.
+        """
+        if self._pending is not None and self._pending_t is not None:
+            flow, _ = self.predicted_flow(self._pending_t)
+            self._pending = (self._pending[0], flow)
 
     def add_task(self, task: Task) -> None:
         """Add a task (GCS link, SITL world...) after the control task; only before the loop starts."""
@@ -294,7 +306,7 @@ class Firmware:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
             mix = self.mixer.neutral()
             self.hal.write_pwm(mix.pwm)
-            self._pending = (mix.tau_stages, None)
+            self._pending, self._pending_t = (mix.tau_stages, None), t
             return
         flow, seq = self.predicted_flow(t)
         auto = AUTO_AXES[self.mode]
@@ -323,7 +335,7 @@ class Firmware:
             tau = np.where(auto, control.tau, self._pilot_wrench(t))
             mix = self.mixer.mix(tau)
         self.hal.write_pwm(mix.pwm)
-        self._pending = (mix.tau_stages, flow)
+        self._pending, self._pending_t = (mix.tau_stages, flow), t
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                tau_e_hat, ff_active, seq)
         if self.on_tick is not None:

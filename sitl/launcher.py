@@ -192,6 +192,10 @@ def launch(opt: SimOptions, progress=None) -> dict:
         if opt.speedup:
             firmware += ["--speedup", str(opt.speedup)]
         firmware += ["--set", f"WK_FF_ENABLE={1 if ff else 0}"]
+        # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
+        # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
+        # (a result must not depend on how fast the machine is).
+        firmware += ["--set", "FS_GCS_ENABLE=0"]
         if not ff:
             firmware += ["--no-forecast"]
         for s in opt.extra_params:

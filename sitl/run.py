@@ -133,6 +133,7 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
     result, why = fw.request_arm(True)
     if result != 0:
         raise RuntimeError(f"the firmware refused to arm: {why}")
+    fw.refresh_prediction()   # as the networked firmware does when its hold ends
     n -= 1
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
     wall0 = time.perf_counter()
