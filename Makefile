@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/wavekeep run --case W3 --controller cpd_ff --out runs/W3-cpd_ff
+	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --out runs/sim-W3-cpd_ff
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

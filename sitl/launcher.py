@@ -27,6 +27,7 @@ import json
 import os
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -171,6 +172,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
     cli = [sys.executable, "-m", "sitl.cli"]
     children: list[_Child] = []
     gcs = None
+    tlog = None
     interrupted = False
     try:
         if ff:
@@ -206,7 +208,9 @@ def launch(opt: SimOptions, progress=None) -> dict:
         # ---------------------------------------------------------------- the ground station
         gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{opt.gcs_port}", source_system=255,
                                          source_component=190, dialect="ardupilotmega")
-        gcs.setup_logfile(str(out / "mission.tlog"))
+        # .tlog: what MAVProxy and QGroundControl write — a big-endian µs timestamp before each frame.
+        # (pymavlink's setup_logfile does not log on UDP links, so the launcher writes it.)
+        tlog = open(out / "mission.tlog", "wb")
 
         def pump(until, what: str, timeout: float = 30.0):
             """Read messages until ``until(msg)`` is true; watch the children meanwhile."""
@@ -221,7 +225,10 @@ def launch(opt: SimOptions, progress=None) -> dict:
                     if not c.alive():
                         raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
                 m = gcs.recv_match(blocking=True, timeout=0.05)
-                if m is not None and m.get_type() != "BAD_DATA" and until(m):
+                if m is None or m.get_type() == "BAD_DATA":
+                    continue
+                tlog.write(struct.pack(">Q", int(time.time() * 1e6) & ~3) + m.get_msgbuf())
+                if until(m):
                     return m
             raise LaunchError(f"timed out waiting for {what}")
 
@@ -263,6 +270,8 @@ def launch(opt: SimOptions, progress=None) -> dict:
         statuses = {c.name: c.stop() for c in reversed(children)}
         if gcs is not None:
             gcs.close()
+        if tlog is not None:
+            tlog.close()
     # ------------------------------------------------------------------ results, as wavekeep run
     truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
     ticks = np.loadtxt(out / "firmware_ticks.csv", delimiter=",", skiprows=1, ndmin=2)

@@ -1,0 +1,114 @@
+"""wavekeep sim: plant, forecast service and firmware as real processes, flown over MAVLink."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sitl.launcher import LaunchError, SimOptions, launch
+from sitl.run import run_mission, write_run
+
+
+def free_port(kind=socket.SOCK_DGRAM) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def options(tmp_path, **kw) -> SimOptions:
+    return SimOptions(out=str(tmp_path / "sim"), plant_port=free_port(), gcs_port=free_port(),
+                      zenoh_port=free_port(socket.SOCK_STREAM), **kw)
+
+
+def test_multi_process_run_equals_the_in_process_run(tmp_path):
+    """Same seed → the same time series and results, through JSON SITL, MAVLink and zenoh."""
+    opt = options(tmp_path, case="W1", controller="cpd_ff", snr_db=15.0, duration=8.0)
+    sim = launch(opt)
+    ref = run_mission("W1", "cpd_ff", 15.0, duration=8.0)
+    for key in ("rmse", "max_abs_error", "mean_power_w", "energy_j"):
+        for dof, v in ref.results[key].items():
+            assert sim[key][dof] == pytest.approx(v, abs=1e-9), (key, dof)
+    write_run(ref, tmp_path / "ref", plots=False)
+    assert (Path(opt.out) / "timeseries.csv").read_text() == (tmp_path / "ref" / "timeseries.csv").read_text()
+    out = Path(opt.out)
+    for name in ("results.json", "mission.tlog", "plant.log", "firmware.log", "forecast.log", "time_history.png"):
+        assert (out / name).stat().st_size > 0, name
+    assert json.loads((out / "results.json").read_text())["processes"] == {"firmware": 0, "plant": 0, "forecast": 0}
+
+
+def test_the_tlog_is_readable_by_mavlogdump(tmp_path):
+    opt = options(tmp_path, case="W3", controller="cpd", duration=3.0, speedup=4.0)
+    launch(opt)
+    dump = Path(sys.executable).with_name("mavlogdump.py")
+    out = subprocess.run([sys.executable, str(dump), "--types", "HEARTBEAT", str(Path(opt.out) / "mission.tlog")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0 and "type : 12" in out.stdout and "base_mode : 217" in out.stdout
+
+
+def test_a_port_in_use_is_a_clear_error(tmp_path):
+    opt = options(tmp_path, controller="cpd", duration=2.0)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", opt.plant_port))
+        with pytest.raises(LaunchError) as info:
+            launch(opt)
+    assert info.value.status == 2 and str(opt.plant_port) in str(info.value)
+
+
+def _children_of(pid: int) -> list[int]:
+    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True)
+    return [int(p) for p in out.stdout.split()]
+
+
+def test_a_dying_child_stops_everything_and_leaves_no_orphan(tmp_path):
+    """Kill the plant mid-mission: the launcher exits 1, naming it, and every process is gone."""
+    opt = options(tmp_path, controller="cpd", duration=600.0, speedup=1.0)
+    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
+           "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
+           "--zenoh-port", str(opt.zenoh_port)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        log = Path(opt.out) / "firmware.log"
+        end = time.monotonic() + 60
+        while time.monotonic() < end and not (log.exists() and "ready" in log.read_text()):
+            time.sleep(0.1)
+        time.sleep(2.0)
+        kids = _children_of(proc.pid)
+        assert len(kids) == 2            # plant and firmware (no forecast service for C-PD)
+        plant_pid = min(kids)            # started first
+        os.kill(plant_pid, signal.SIGKILL)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1 and "plant" in err
+    time.sleep(0.5)
+    for pid in kids:
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
+
+
+def test_ctrl_c_stops_every_process(tmp_path):
+    opt = options(tmp_path, controller="cpd", duration=600.0)
+    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
+           "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
+           "--zenoh-port", str(opt.zenoh_port)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = Path(opt.out) / "firmware.log"
+    end = time.monotonic() + 60
+    while time.monotonic() < end and not (log.exists() and "ready" in log.read_text()):
+        time.sleep(0.1)
+    time.sleep(1.0)
+    kids = _children_of(proc.pid)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    time.sleep(0.5)
+    for pid in kids:
+        assert not Path(f"/proc/{pid}").exists() or "zombie" in Path(f"/proc/{pid}/status").read_text()
