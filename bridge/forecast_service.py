@@ -3,7 +3,7 @@
 The service holds a liveliness token (``wavekeep/<site>/service/forecast``),
 subscribes to the wave buoy's record (``wavekeep/<site>/buoy/elevation``,
 published by the plant), and publishes a forecast (``wavekeep/<site>/forecast``)
-at ``rate_hz``; a queryable (``…/forecast/latest``) answers with the newest one.
+``rate_hz`` times per second of the vehicle's clock; a queryable (``…/forecast/latest``) answers with the newest one.
 
 Time: forecasts are stamped on the *vehicle's* clock. The buoy record carries
 that clock (in SITL, the simulation's time), so the service's notion of "now"
@@ -23,7 +23,6 @@ Modes:
 from __future__ import annotations
 
 import threading
-import time
 from dataclasses import replace
 
 import numpy as np
@@ -67,7 +66,7 @@ class ForecastService:
         self.latest: bytes | None = None
         self.counters = {"buoy_records": 0, "buoy_rejected": 0, "published": 0, "queries": 0, "predict_failed": 0}
         self.last_error = ""
-        self._next_publish = 0.0
+        self._next_publish = -float("inf")
 
     # ------------------------------------------------------------------ inputs
     def _take_buoy(self) -> None:
@@ -109,12 +108,16 @@ class ForecastService:
             self.last_error = str(exc)
             return None
 
-    def step(self, wall_now: float | None = None) -> None:
-        """Take buoy data, publish when due, answer queries. Never blocks."""
-        wall_now = time.monotonic() if wall_now is None else wall_now
+    def step(self) -> None:
+        """Take buoy data, publish when due, answer queries. Never blocks.
+
+        Publishing is paced on the vehicle's clock (the buoy's time), every
+        1/rate_hz seconds of it, so a simulation run faster than real time gets
+        its forecasts as often, in its own time, as a real-time one.
+        """
         self._take_buoy()
-        if wall_now >= self._next_publish:
-            self._next_publish = wall_now + self.period
+        if self.now is not None and self.now >= self._next_publish:
+            self._next_publish = self.now + self.period
             f = self.make_forecast()
             if f is not None:
                 self.latest = encode_forecast(f)

@@ -118,11 +118,6 @@ def main(argv: list[str] | None = None) -> int:
     sp = mcfg["setpoint"]
     sensor_seed, _ = derive_seeds(args.seed)
     hal = JSONSITLHAL(args.hal, params, 1.0 / rate, sensor_seed, timeout_s=params["SIM_JSON_TMO"])
-    try:
-        hal.start()
-    except TimeoutError as exc:
-        print(f"wavekeep firmware: {exc}", file=sys.stderr)
-        return 3
     fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
                   T200Curve.from_config(vcfg["thrusters"]), [sp["x"], sp["depth"], sp["pitch"]], rate,
                   mcfg["plant"]["strips"])
@@ -138,6 +133,13 @@ def main(argv: list[str] | None = None) -> int:
         net = load_network_config(args.network)
         session = open_session(net, "vehicle")
         forecast_link = ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
+    try:
+        hal.start()     # after the forecast subscriber exists: the plant's first buoy record may trigger a forecast
+    except TimeoutError as exc:
+        print(f"wavekeep firmware: {exc}", file=sys.stderr)
+        if session is not None:
+            session.close()
+        return 3
     try:
         link.start()
         # First tick on simulated time: the estimator initialises from the plant's t = 0 state.

@@ -18,23 +18,26 @@ __all__ = ["BuoyPublisher"]
 
 
 class BuoyPublisher:
-    def __init__(self, session, site: str, sea: Sea, publish_every_s: float = 1.0):
+    def __init__(self, session, site: str, sea: Sea, publish_every_s: float = 0.5, history_s: float = 300.0):
         self.buoy = sea.buoy()
         self.dt = 1.0 / self.buoy.sample_rate
         self.every = float(publish_every_s)
+        self.history = int(round(history_s / self.dt))
         self._pub = session.declare_publisher(buoy_key(site))
-        self._next_sample = 0          # index of the next sample on the buoy grid
+        # The buoy has been recording before the mission starts: the first message carries
+        # ``history_s`` of record before t = 0, so a predictor can forecast from the start.
+        self._next_sample = -self.history  # index of the next sample on the buoy grid
         self._last_publish_t = -np.inf
         self.seq = 0
         self.published = 0
 
     def reset(self) -> None:
-        self._next_sample = 0
+        self._next_sample = -self.history
         self._last_publish_t = -np.inf
 
     def advance(self, t: float) -> None:
         """Publish the samples up to simulated time t (s) if a message is due."""
-        if t - self._last_publish_t < self.every and self._next_sample > 0:
+        if t - self._last_publish_t < self.every and self._last_publish_t > -np.inf:
             return
         last = int(np.floor(t / self.dt + 1e-9))
         if last < self._next_sample:

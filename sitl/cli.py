@@ -128,7 +128,7 @@ def cmd_run(args) -> int:
     from .run import run_mission, write_run
 
     result = run_mission(args.case, args.controller, args.forecast_snr_db, seed=args.seed, duration=args.duration,
-                         mission=args.mission, vehicle=args.vehicle, progress=True)
+                         mission=args.mission, vehicle=args.vehicle, progress=True, forecast_mode=args.forecast)
     r = result.results
     out = write_run(result, args.out, plots=not args.no_plots)
     print(f"{r['case']} {r['label']}, seed {r['seed']}, {r['duration_s']:g} s at {r['rate_hz']:g} Hz: "
@@ -234,6 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--forecast-snr-db", type=float, default=None,
                    help="inject the paper's forecast error at this SNR (dB); default: the exact forecast")
     p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's (600)")
+    p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
+                   help="the sea's own components, or predicted from the up-wave buoy (DSWP)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG")
     p.add_argument("--out", required=True, help="run folder")
     p.set_defaults(func=cmd_run)
@@ -275,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--site", default=None, help="site name for the key expressions (default: configs/network.yaml)")
     p.add_argument("--mode", choices=("oracle", "dswp"), default="oracle")
     p.add_argument("--snr-db", type=float, default=None, help="oracle: inject the paper's error at this SNR")
-    p.add_argument("--rate", type=_positive, default=2.0, help="forecasts per second (wall clock)")
+    p.add_argument("--rate", type=_positive, default=2.0, help="forecasts per second of the vehicle's clock")
     p.add_argument("--horizon", type=_positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
     p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
     p.add_argument("--network", default="network", help="network config name or path")

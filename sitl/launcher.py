@@ -163,7 +163,8 @@ def launch(opt: SimOptions, progress=None) -> dict:
     if ff:
         _check_tcp_port(opt.zenoh_port, "zenoh")
 
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    # One BLAS thread per process: three processes already share the cores
+    env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     netcfg = out / "network.yaml"
     netcfg.write_text(json.dumps({"site": "sim", "zenoh": {
         "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],

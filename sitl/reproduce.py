@@ -107,6 +107,9 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     runs: list[RunResult] = []
     if workers > 1:
         import multiprocessing as mp
+        # One BLAS thread per worker: the workers already fill the cores
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
         with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
             for i, r in enumerate(pool.map(_one, jobs)):
                 runs.append(r)

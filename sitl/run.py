@@ -74,11 +74,45 @@ class MissionSetup:
     rate_hz: float
     duration_s: float
     seed: int
+    feeder: "DSWPFeeder | None" = None
+
+
+class DSWPFeeder:
+    """The forecast service's DSWP mode, in process: every ``period_s`` of simulated time, predict
+    the waves at the vehicle from the buoy's record (300 s of history at the start) and hand the
+    forecast to the firmware — what ``wavekeep forecast --mode dswp`` does over zenoh, without
+    the network's timing, so the result is deterministic."""
+
+    def __init__(self, sea: Sea, fw: Firmware, x_vehicle: float, period_s: float = 0.5, window_s: float = 120.0,
+                 history_s: float = 300.0):
+        from bridge.dswp import predict_from_buoy
+        self._predict = predict_from_buoy
+        self.sea, self.fw, self.x = sea, fw, float(x_vehicle)
+        self.buoy = sea.buoy()
+        self.period, self.window = float(period_s), float(window_s)
+        self._t_hist, self._eta_hist = self.buoy.record(-history_s, 0.0)
+        self._next = 0.0
+        self.seq = 0
+
+    def advance(self, t: float) -> None:
+        if t + 1e-9 < self._next:
+            return
+        self._next = t + self.period
+        tb, eta = self.buoy.record(self._t_hist[-1] + 1e-9, t)
+        if tb.size:
+            self._t_hist, self._eta_hist = np.concatenate([self._t_hist, tb]), np.concatenate([self._eta_hist, eta])
+        keep = self._t_hist >= self._t_hist[-1] - self.window
+        self._t_hist, self._eta_hist = self._t_hist[keep], self._eta_hist[keep]
+        self.seq += 1
+        self.fw.forecast.offer(self._predict(self._t_hist, self._eta_hist, self.buoy.x, self.x,
+                                             self.sea.water_depth, window_s=self.window, oversample=2,
+                                             seq=self.seq))
 
 
 def build_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None, seed: int | None = None,
                   duration: float | None = None, mission: str = "station_keeping", vehicle: str = "bluerov2_heavy",
-                  params: ParameterTable | None = None, initial_eta=None, clock: Clock | None = None) -> MissionSetup:
+                  params: ParameterTable | None = None, initial_eta=None, clock: Clock | None = None,
+                  forecast_mode: str = "oracle") -> MissionSetup:
     """Build sea, plant, in-process HAL and firmware for one mission (see :func:`run_mission`).
 
     ``clock`` paces the firmware (default: lockstep simulated time).
@@ -101,17 +135,23 @@ def build_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | 
     fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
                   T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
     forecast = None
-    if controller == "cpd_ff":
+    feeder = None
+    if controller == "cpd_ff" and forecast_mode == "oracle":
         forecast = oracle_forecast(sea.components, snr_db, np.random.default_rng(forecast_seed))
         fw.forecast.offer(forecast)
+    elif controller == "cpd_ff":
+        feeder = DSWPFeeder(sea, fw, setpoint[0])
+        feeder.advance(0.0)
+    elif forecast_mode not in ("oracle", "dswp"):
+        raise ValueError(f"forecast_mode must be 'oracle' or 'dswp', got {forecast_mode!r}")
     return MissionSetup(sea, plant, hal, fw, forecast, setpoint, rate,
-                        mcfg["duration"] if duration is None else float(duration), sea.seed)
+                        mcfg["duration"] if duration is None else float(duration), sea.seed, feeder)
 
 
 def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None, seed: int | None = None,
                 duration: float | None = None, mission: str = "station_keeping", vehicle: str = "bluerov2_heavy",
                 params: ParameterTable | None = None, progress: bool = False,
-                initial_eta=None) -> RunResult:
+                initial_eta=None, forecast_mode: str = "oracle") -> RunResult:
     """Fly one mission and return its results and per-tick time series.
 
     ``controller`` is ``cpd`` or ``cpd_ff``; ``snr_db`` injects the paper's
@@ -120,7 +160,8 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
     and forecast error streams. ``initial_eta`` starts the vehicle at another pose
     [x, z, θ] than the setpoint (a setpoint step).
     """
-    m = build_mission(case, controller, snr_db, seed, duration, mission, vehicle, params, initial_eta)
+    m = build_mission(case, controller, snr_db, seed, duration, mission, vehicle, params, initial_eta,
+                      forecast_mode=forecast_mode)
     sea, plant, hal, fw, forecast, setpoint, rate = m.sea, m.plant, m.hal, m.firmware, m.forecast, m.setpoint, m.rate_hz
     seed, duration = m.seed, m.duration_s
     n = int(round(duration * rate))
@@ -140,6 +181,8 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
     with ProgressBar(n, f"{sea.name} {run_label(controller, snr_db)}", enabled=None if progress else False) as bar:
         for k in range(n):
             truth = plant.state
+            if m.feeder is not None:
+                m.feeder.advance(truth.t)
             fw.scheduler.run_tick()
             hal.step_world()
             r = fw.last
@@ -173,7 +216,8 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
         "mean_power_w": metrics["mean_power_w"],
         "energy_j": metrics["energy_j"],
         "tick_overruns": stats["overruns"],
-        "label": run_label(controller, snr_db),
+        "label": "C-PD+FF DSWP" if m.feeder is not None else run_label(controller, snr_db),
+        "forecast": None if controller != "cpd_ff" else forecast_mode,
         "hs_target_m": sea.hs_target,
         "hs_realised_m": float(4.0 * np.std(elevation_along(sea.components, np.full(n, setpoint[0]), log[:, 0]))),
         "ekf": {"rejected": dict(ekf.rejected), "accepted": dict(ekf.accepted),
