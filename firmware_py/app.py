@@ -14,9 +14,10 @@ ground station has armed the vehicle, so a scripted start (the launcher's) is
 the same at every speed-up: the mission's clock starts when the vehicle is
 armed, as in the in-process runner.
 
-Time: without ``--speedup`` the loop runs in lockstep as fast as the plant
-answers (simulated clock); ``--speedup X`` paces it at X times real time on the
-wall clock.
+Time: the loop runs in lockstep with the plant — each tick is one plant step —
+as fast as the plant answers, or, with ``--speedup X``, paced at X times real
+time on the wall clock (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
+slow tick makes the run fall behind, never skips a step).
 """
 from __future__ import annotations
 
@@ -101,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
     from .params import load_params
     from .physics.thrusters import T200Curve, ThrusterLayout
     from .physics.vehicle import VehicleParams
-    from .scheduler import ScaledClock, Task
+    from .scheduler import LockstepPacedClock, Task
 
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -165,13 +166,16 @@ def main(argv: list[str] | None = None) -> int:
             link.restart_streams(fw.scheduler.next_slot_ns())
             fw.refresh_prediction()
         if args.speedup:
-            # From here on, pace on the wall clock from the next slot's simulated time
+            # From here on, pace lockstep time against the wall clock from the next slot
             start = fw.scheduler.next_slot_ns()
-            hal.clock = ScaledClock(args.speedup, start_ns=start)
+            hal.clock = LockstepPacedClock(args.speedup, start_ns=start - fw.scheduler.period_ns)
             fw.rebuild_scheduler(t0_ns=start)
         fw.scheduler.run(stop=stop.is_set)
     finally:
         stats = fw.scheduler.stats()
+        if isinstance(hal.clock, LockstepPacedClock):
+            stats["paced"] = {"speedup": hal.clock.speedup, "late_slots": hal.clock.late,
+                              "max_lag_ms": hal.clock.max_lag_ns / 1e6}
         link.stop()
         if forecast_link is not None:
             forecast_link.close()

@@ -53,7 +53,7 @@ from typing import Callable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Clock", "WallClock", "ScaledClock", "SimClock", "Task", "TaskStats", "Scheduler"]
+__all__ = ["Clock", "WallClock", "ScaledClock", "SimClock", "LockstepPacedClock", "Task", "TaskStats", "Scheduler"]
 
 
 @runtime_checkable
@@ -154,11 +154,61 @@ class SimClock:
         if t_ns > self._now:
             self._now = int(t_ns)
 
+    def advance_to(self, t_ns: int) -> None:
+        """Move time forward to ``t_ns`` (ns) if it is in the future."""
+        self.sleep_until(t_ns)
+
     def advance(self, dt_ns: int) -> None:
         """Move time forward by ``dt_ns`` (ns, >= 0)."""
         if dt_ns < 0:
             raise ValueError(f"SimClock cannot go backwards (dt_ns={dt_ns})")
         self._now += int(dt_ns)
+
+
+class LockstepPacedClock(SimClock):
+    """Simulated (lockstep) time, paced against the wall clock at ``speedup`` × real time.
+
+    For SITL runs that should go at (a multiple of) real time: time is the
+    simulation's, moved only by :meth:`sleep_until` and :meth:`advance_to`, so a
+    slow tick is never skipped (the plant advanced exactly one step per tick,
+    and must stay in lockstep) — the run simply falls behind the wall clock, as
+    ArduPilot's SITL does. :meth:`sleep_until` waits for the slot's wall-clock
+    deadline (sleep, then spin the last ``spin_ns``); deadlines already past on
+    arrival are counted in :attr:`late` with the worst lag in
+    :attr:`max_lag_ns`. The wall-clock origin is set by the first
+    :meth:`sleep_until`.
+    """
+
+    def __init__(self, speedup: float = 1.0, start_ns: int = 0, spin_ns: int = 1_000_000):
+        if not (speedup > 0 and math.isfinite(speedup)):
+            raise ValueError(f"speedup must be positive and finite, got {speedup}")
+        super().__init__(start_ns)
+        self.speedup = float(speedup)
+        self.spin_ns = int(spin_ns)
+        self._start = int(start_ns)
+        self._wall0: int | None = None
+        self.late = 0
+        self.max_lag_ns = 0
+
+    def sleep_until(self, t_ns: int) -> None:
+        if self._wall0 is None:
+            self._wall0 = time.monotonic_ns() - int((t_ns - self._start) / self.speedup)
+        deadline = self._wall0 + int((t_ns - self._start) / self.speedup)
+        lag = time.monotonic_ns() - deadline
+        if lag > 0:
+            self.late += 1
+            self.max_lag_ns = max(self.max_lag_ns, lag)
+        else:
+            remaining = -lag
+            if remaining > self.spin_ns:
+                time.sleep((remaining - self.spin_ns) * 1e-9)
+            while time.monotonic_ns() < deadline:
+                pass
+        super().sleep_until(t_ns)
+
+    def advance_to(self, t_ns: int) -> None:
+        """Move simulated time forward to ``t_ns`` without waiting (the plant's reply)."""
+        super().sleep_until(t_ns)
 
 
 @dataclass

@@ -2,7 +2,7 @@
 
 For flying Wavekeep from a ground station now, and for the link's tests. The
 firmware's scheduler runs the control task, the GCS link's update and the
-world's step each slot, in a background thread, on :class:`ScaledClock` (real
+world's step each slot, in a background thread, on :class:`LockstepPacedClock` (real
 time at ``speedup`` 1). The multi-process launcher (``wavekeep sim``) puts the
 world and the firmware in separate processes instead.
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 import threading
 
 from firmware_py.params import ParameterTable
-from firmware_py.scheduler import ScaledClock, Task
+from firmware_py.scheduler import LockstepPacedClock, Task
 
 from .run import MissionSetup, build_mission
 
@@ -32,7 +32,7 @@ class LiveSim:
 
         self.speedup = float(speedup)
         self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
-                                                 clock=ScaledClock(self.speedup))
+                                                 clock=LockstepPacedClock(self.speedup))
         self.firmware = self.setup.firmware
         self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)
         rate = self.setup.rate_hz
@@ -43,7 +43,7 @@ class LiveSim:
 
     def start(self) -> "LiveSim":
         # The firmware's clock starts now, at the plant's time 0, and the grid with it
-        self.setup.hal.clock = ScaledClock(self.speedup, start_ns=0)
+        self.setup.hal.clock = LockstepPacedClock(self.speedup, start_ns=0)
         self.firmware.rebuild_scheduler(t0_ns=0)
         self.link.start()
         self._thread = threading.Thread(target=self._run, name="wavekeep-live", daemon=True)
