@@ -601,8 +601,17 @@ class MavlinkLink:
         ms = self._time_boot_ms()
         tau = r.tau_e_hat
         values = ((b"FF_AGE", age), (b"FF_ON", 1.0 if r.ff_active else 0.0),
-                  (b"FF_X", tau[0]), (b"FF_Z", tau[1]), (b"FF_M", tau[2]))
+                  (b"FF_X", tau[0]), (b"FF_Z", tau[1]), (b"FF_M", tau[2])) + self._loop_values()
         return [mavlink.MAVLink_named_value_float_message(ms, name, float(v)) for name, v in values]
+
+    def _loop_values(self) -> tuple:
+        """The control loop's performance, as ArduPilot reports its loop timing: the control task's
+        compute p99 (ms), the missed deadlines (overruns, plus slots a paced SITL run fell behind)."""
+        st = self._sched_stats or {}
+        control = (st.get("tasks") or {}).get("control") or {}
+        p99 = (control.get("compute") or {}).get("p99_us")
+        late = getattr(getattr(self.fw.hal, "clock", None), "late", 0)
+        return ((b"TICK_P99", (p99 or 0.0) / 1e3), (b"TICK_MISS", float(st.get("overruns", 0) + late)))
 
     def _depth_estimate(self) -> tuple[float, float, float, float, float, float]:
         """x, depth, θ, and NED velocities vx, vz and pitch rate q, from the estimate of the last tick."""

@@ -189,6 +189,7 @@ class LockstepPacedClock(SimClock):
         self._wall0: int | None = None
         self.late = 0
         self.max_lag_ns = 0
+        self.wake_error = _Ring(4096)   # wall-clock start error of each slot (ns): the loop's start jitter
 
     def sleep_until(self, t_ns: int) -> None:
         if self._wall0 is None:
@@ -204,6 +205,7 @@ class LockstepPacedClock(SimClock):
                 time.sleep((remaining - self.spin_ns) * 1e-9)
             while time.monotonic_ns() < deadline:
                 pass
+        self.wake_error.push(time.monotonic_ns() - deadline)
         super().sleep_until(t_ns)
 
     def advance_to(self, t_ns: int) -> None:

@@ -8,6 +8,7 @@ world and the firmware in separate processes instead.
 """
 from __future__ import annotations
 
+import os
 import threading
 
 from firmware_py.params import ParameterTable
@@ -27,7 +28,8 @@ class LiveSim:
 
     def __init__(self, case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None,
                  seed: int | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
-                 speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None):
+                 speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None,
+                 realtime: bool = False):
         from firmware_py.gcs import MavlinkLink
 
         self.speedup = float(speedup)
@@ -40,6 +42,8 @@ class LiveSim:
         self.firmware.add_task(Task("world", rate, lambda _slot: self.setup.hal.step_world()))
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.realtime = realtime
+        self.scheduling = "normal"
 
     def start(self) -> "LiveSim":
         # The firmware's clock starts now, at the plant's time 0, and the grid with it
@@ -51,6 +55,12 @@ class LiveSim:
         return self
 
     def _run(self) -> None:
+        if self.realtime:
+            try:   # the loop thread only (Linux: pid 0 is the calling thread)
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+                self.scheduling = "SCHED_FIFO"
+            except (PermissionError, AttributeError, OSError):
+                self.scheduling = "normal (SCHED_FIFO not permitted)"
         self.firmware.scheduler.run(stop=self._stop.is_set)
 
     def stop(self) -> None:

@@ -44,6 +44,7 @@ import socket
 import struct
 import sys
 import threading
+import time
 from dataclasses import asdict, dataclass
 from typing import Callable, Sequence
 
@@ -319,7 +320,8 @@ class _RecordingPlant:
     def _record(self) -> None:
         s = self._plant.state
         if self._rows is not None:
-            self._rows.append([s.t, *s.eta, *s.nu, *self._plant.tau_E])
+            # wall_s: when the plant was asked for this state — an outside observer of the firmware's timing
+            self._rows.append([s.t, *s.eta, *s.nu, *self._plant.tau_E, time.monotonic()])
         if self._buoy is not None:
             self._buoy.advance(s.t)
 
@@ -398,8 +400,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if session is not None:
             session.close()
         if args.log:
-            header = "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M"
-            np.savetxt(args.log, np.array(rows).reshape(-1, 10), delimiter=",", header=header, comments="",
+            header = "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s"
+            np.savetxt(args.log, np.array(rows).reshape(-1, 11), delimiter=",", header=header, comments="",
                        fmt="%.17g")
         for sig, handler in previous.items():
             signal.signal(sig, handler)
