@@ -193,7 +193,10 @@ class LockstepPacedClock(SimClock):
 
     def sleep_until(self, t_ns: int) -> None:
         if self._wall0 is None:
+            # The first slot anchors the wall clock: it starts now, by definition on time
             self._wall0 = time.monotonic_ns() - int((t_ns - self._start) / self.speedup)
+            super().sleep_until(t_ns)
+            return
         deadline = self._wall0 + int((t_ns - self._start) / self.speedup)
         lag = time.monotonic_ns() - deadline
         if lag > 0:

@@ -259,7 +259,8 @@ def test_heartbeat_and_default_streams(v):
     assert ss.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_AHRS          # EKF converged
     assert not ss.onboard_control_sensors_enabled & mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS   # disarmed
     named = {m.name: m.value for m in by["NAMED_VALUE_FLOAT"]}
-    assert set(named) == {"FF_AGE", "FF_ON", "FF_X", "FF_Z", "FF_M"}
+    assert set(named) == {"FF_AGE", "FF_ON", "FF_X", "FF_Z", "FF_M", "TICK_P99", "TICK_MISS"}
+    assert 0.0 < named["TICK_P99"] < 50.0 and named["TICK_MISS"] >= 0.0   # control-task compute p99 (ms)
     assert named["FF_AGE"] >= 0.0 and named["FF_ON"] == 0.0        # a forecast, but disarmed: FF off
 
 
