@@ -115,6 +115,7 @@ class Firmware:
         self.pilot = PilotInput()
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
         self.failsafe_gcs = False
+        self.failsafe_ekf = False
         self.sensors_healthy = False
         self._motor_test: MotorTest | None = None
         self._gcs_last_seen: float | None = None
@@ -246,7 +247,7 @@ class Firmware:
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
             return MAV_STATE.BOOT
-        if self.failsafe_gcs:
+        if self.failsafe_gcs or self.failsafe_ekf:
             return MAV_STATE.CRITICAL
         return MAV_STATE.ACTIVE if self.armed else MAV_STATE.STANDBY
 
@@ -267,6 +268,36 @@ class Firmware:
             return
         self.failsafe_gcs = True
         self.say(MAV_SEVERITY.CRITICAL, "GCS failsafe")
+        if action == 2:
+            self.request_arm(False)
+        elif action == 3:
+            self._enter(Mode.ALT_HOLD)
+        elif action == 4:
+            self._enter(Mode.SURFACE)
+
+    def _check_ekf_failsafe(self) -> None:
+        """A diverged estimator (non-finite, or position 1-σ beyond FS_EKF_THRESH) triggers FS_EKF_ACTION."""
+        if not self.ekf.initialised:
+            return
+        sig = self.ekf.sigma()
+        bad = (not np.all(np.isfinite(self.ekf.x)) or not np.all(np.isfinite(sig))
+               or max(sig[0], sig[1]) > self.params["FS_EKF_THRESH"])
+        if not bad:
+            if self.failsafe_ekf:
+                self.failsafe_ekf = False
+                self.say(MAV_SEVERITY.INFO, "EKF failsafe cleared")
+            return
+        if self.failsafe_ekf:
+            return
+        self.failsafe_ekf = True
+        action = int(self.params["FS_EKF_ACTION"])
+        if action == 0:
+            return
+        self.say(MAV_SEVERITY.CRITICAL, "EKF failsafe")
+        if not np.all(np.isfinite(self.ekf.x)):
+            self.ekf.initialised = False          # start again from the next sensor frame
+        if not self.armed:
+            return
         if action == 2:
             self.request_arm(False)
         elif action == 3:
@@ -301,6 +332,7 @@ class Firmware:
         if self._pending is not None:
             self.ekf.predict(*self._pending)
         self.ekf.update(frame)
+        self._check_ekf_failsafe()
         self._check_gcs_failsafe(t)
         if not self.ekf.initialised or not healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral

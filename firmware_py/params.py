@@ -91,6 +91,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_SURF_RATE", 0.01, 2.0, "m/s", "SURFACE mode ascent rate of the depth target"),
     ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
     ParamDef("FS_GCS_TIMEOUT", 0.1, 120.0, "s", "GCS heartbeat timeout"),
+    ParamDef("FS_EKF_ACTION", 0, 4, "", "EKF failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
+    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m", "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
     ParamDef("SYSID_THISMAV", 1, 255, "", "this vehicle's MAVLink system id", integer=True),
     ParamDef("SYSID_MYGCS", 1, 255, "", "the ground station's MAVLink system id", integer=True),
     ParamDef("WK_ORIGIN_LAT", -90.0, 90.0, "deg", "latitude of the local NED origin (GLOBAL_POSITION_INT)"),

@@ -137,3 +137,31 @@ def test_thrust_profiles(tmp_path):
         csv_profile(f)
     with pytest.raises(ValueError):
         pattern_profile("zigzag", "surge", 1, 1)
+
+
+def test_lost_position_fix_grows_the_covariance_honestly_and_trips_the_ekf_failsafe(mission):
+    """No position fix: the EKF's position 1-σ grows until FS_EKF_THRESH, then the vehicle
+    surfaces (FS_EKF_ACTION 4) and says so; when fixes return the failsafe clears."""
+    from dataclasses import replace as dc_replace
+
+    fw, hal = mission.firmware, mission.hal
+    fw.params.set("FS_EKF_THRESH", 0.3)
+    tick(mission)
+    fw.request_mode(Mode.POSHOLD)
+    fw.request_arm(True)
+    tick(mission, 20)
+    read = hal.read_sensors
+    hal.read_sensors = lambda: dc_replace(read(), x=float("nan"))
+    sigmas = []
+    for _ in range(600):
+        tick(mission)
+        sigmas.append(fw.ekf.sigma()[0])
+        if fw.failsafe_ekf:
+            break
+    assert fw.failsafe_ekf and fw.mode == Mode.SURFACE and fw.system_status() == MAV_STATE.CRITICAL
+    assert sigmas[-1] > 5 * sigmas[0]                            # grows without a fix
+    assert sigmas[-1] > fw.params["FS_EKF_THRESH"]
+    assert any(text == "EKF failsafe" for _, text in fw.events)
+    hal.read_sensors = read
+    tick(mission, 5)
+    assert not fw.failsafe_ekf and fw.ekf.sigma()[0] < 0.1
