@@ -92,6 +92,7 @@ class ServerCounters:
     malformed: int = 0      # dropped: size, magic, rate or PWM range
     errors: int = 0         # packets the plant could not step or report (dropped, no reply)
     steps: int = 0          # world steps taken
+    stale: int = 0          # late (reordered) packets older than the newest one: dropped, no reply
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -167,6 +168,15 @@ def decode_servo_packet(data: bytes) -> tuple[int, int, np.ndarray] | None:
     return rate, count, pwm
 
 
+RESTART_MAX_COUNT = 10
+"""A frame_count that goes backwards to at most this restarts the world; one that goes backwards
+but stays above it is a late (reordered) datagram and is dropped (``stale``)."""
+
+
+class _Stale(Exception):
+    """A reordered servo packet older than the newest one."""
+
+
 class PhysicsServer:
     """A plant behind ArduPilot's JSON SITL protocol.
 
@@ -217,6 +227,8 @@ class PhysicsServer:
         with self._lock:
             try:
                 reply = self._advance(rate, count, pwm)
+            except _Stale:
+                return None
             except Exception:   # a plant failure must not take the server down
                 c.errors += 1
                 return None
@@ -231,6 +243,11 @@ class PhysicsServer:
 
     def _advance(self, rate: int, count: int, pwm: np.ndarray) -> bytes:
         c = self.counters
+        if self._session and count < self._last_count and count > RESTART_MAX_COUNT and rate == self._rate:
+            # Older than the newest frame but not a restart (an autopilot restarts counting from 0):
+            # a late, reordered datagram. Stepping or restarting on it would corrupt the world.
+            c.stale += 1
+            raise _Stale
         if self._session and (rate != self._rate or count < self._last_count):
             self.plant = self.plant_factory()
             self._session = False

@@ -230,3 +230,27 @@ def test_same_seed_same_run():
     a = run_mission("W2", "cpd_ff", 15.0, duration=5.0).timeseries
     b = run_mission("W2", "cpd_ff", 15.0, duration=5.0).timeseries
     np.testing.assert_array_equal(a, b)
+
+
+# ----------------------------------------------------------------------------- property-based
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_TABLE = load_params()
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.sampled_from(_TABLE.names()),
+       st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**12, 10**12)))
+def test_parameter_set_accepts_exactly_the_allowed_values(name, value):
+    table = _TABLE.copy()
+    d = table.definition(name)
+    old = table[name]
+    why = table.set(name, value)
+    ok = (np.isfinite(float(value)) and d.lo <= float(value) <= d.hi
+          and (not d.integer or float(value).is_integer()))
+    if ok:
+        assert why is None and table[name] == float(value)
+    else:
+        assert why and table[name] == old
