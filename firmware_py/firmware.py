@@ -116,6 +116,8 @@ class Firmware:
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
         self.failsafe_gcs = False
         self.failsafe_ekf = False
+        self.ff_faults = 0               # forecasts that evaluated to non-finite loads
+        self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
         self._motor_test: MotorTest | None = None
         self._gcs_last_seen: float | None = None
@@ -352,6 +354,10 @@ class Firmware:
             # left to the feedback: through the quadratic drag it would turn velocity-estimate
             # noise into feed-forward noise (≈ 300 N per m/s in W2).
             tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
+            if not np.all(np.isfinite(tau_e_hat)):
+                # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
+                self.ff_faults += 1
+                ff_active, flow, tau_e_hat = False, None, np.zeros(3)
         else:
             tau_e_hat = np.zeros(3)
         self._move_target(t)
@@ -365,7 +371,12 @@ class Firmware:
         else:
             self._motor_test = None
             tau = np.where(auto, control.tau, self._pilot_wrench(t))
-            mix = self.mixer.mix(tau)
+            if np.all(np.isfinite(tau)):
+                mix = self.mixer.mix(tau)
+            else:   # never send a non-finite command to the thrusters
+                self.output_faults += 1
+                self.controller.reset()
+                mix = self.mixer.neutral()
         self.hal.write_pwm(mix.pwm)
         self._pending, self._pending_t = (mix.tau_stages, flow), t
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import socket
+import struct
 import time
 
 import numpy as np
@@ -95,3 +96,65 @@ def test_firmware_keeps_flying_over_a_lossy_plant_link():
     assert any("Sensors lost" in text for _, text in fw.events) or hal.counters.silences > 0
     err = np.array(errors)
     assert err[:, 0].max() < 1.0 and err[:, 1].max() < 1.0 and err[:, 2].max() < np.radians(15)
+
+
+def test_hal_survives_bad_replies_from_the_plant():
+    """A fake physics server answers with NaN fields, missing fields, garbage and a timestamp
+    that goes backwards: the HAL counts and ignores the bad ones (frames unhealthy → neutral)
+    and carries the vehicle's time on through a physics reset."""
+    import json
+    import threading
+
+    from firmware_py.hal_json import JSONSITLHAL
+    from firmware_py.params import load_params
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind(("127.0.0.1", 0))
+    sock.settimeout(0.2)
+
+    def state(t, count, **over):
+        msg = {"timestamp": t, "imu": {"gyro": [0, 0, 0], "accel_body": [0, 0, -9.81]},
+               "position": [0.0, 0.0, 5.0], "velocity": [0, 0, 0], "attitude": [0, 0, 0],
+               "wavekeep": {"eta": [0.0, 5.0, 0.0], "nu": [0, 0, 0], "frame_count": count}}
+        msg.update(over)
+        return ("\n" + json.dumps(msg) + "\n").encode()
+
+    script = [
+        lambda c: state(0.0, c),                                          # hello
+        lambda c: state(0.05, c),
+        lambda c: state(float("nan"), c),                                 # NaN timestamp
+        lambda c: state(0.15, c, wavekeep={"eta": [float("nan"), 5, 0], "nu": [0, 0, 0], "frame_count": c}),
+        lambda c: b"\n{not json\n",
+        lambda c: ("\n" + json.dumps({"timestamp": 0.25}) + "\n").encode(),   # fields missing
+        lambda c: state(0.02, c),                                         # physics went back: a reset
+        lambda c: state(0.07, c),
+    ]
+    stop = threading.Event()
+
+    def serve():
+        i = 0
+        while not stop.is_set() and i < len(script):
+            try:
+                data, addr = sock.recvfrom(200)
+            except socket.timeout:
+                continue
+            count = struct.unpack_from("<HHI", data)[2]
+            sock.sendto(script[i](count), addr)
+            i += 1
+    th = threading.Thread(target=serve, daemon=True)
+    th.start()
+    hal = JSONSITLHAL(("127.0.0.1", sock.getsockname()[1]), load_params(), 0.05, 1, timeout_s=0.1)
+    try:
+        hal.start()
+        frames = []
+        for _ in range(len(script) - 1):
+            hal.write_pwm(np.full(8, 1500))
+            frames.append(hal.read_sensors())
+    finally:
+        stop.set()
+        hal.close()
+        sock.close()
+    assert hal.counters.malformed >= 4
+    assert frames[0].healthy and not frames[1].healthy                # the NaN reply is not a state
+    assert hal.counters.physics_resets == 1
+    assert frames[-1].healthy and frames[-1].t > frames[0].t        # vehicle time carried on

@@ -213,7 +213,7 @@ def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarra
     c, s = math.cos(th), math.sin(th)
     tt = np.atleast_1d(np.asarray(t, dtype=float))
     # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
-    depth = np.maximum(eta[1] - xs * s, 0.0)
+    depth = np.clip(eta[1] - xs * s, 0.0, waves.water_depth)   # and nothing below the seabed
     u, w, ud, wd = particle_kinematics_grid(waves, eta[0] + xs * c, depth, tt)   # (T, S)
     return BodyFlow(xs, wts, c * u - s * w, s * u + c * w, c * ud - s * wd, s * ud + c * wd)
 
