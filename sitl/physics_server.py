@@ -168,6 +168,9 @@ def decode_servo_packet(data: bytes) -> tuple[int, int, np.ndarray] | None:
     return rate, count, pwm
 
 
+MAX_CATCH_UP = 100
+"""At most this many steps to catch up on a gap in frame_count (2 s at 50 Hz)."""
+
 RESTART_MAX_COUNT = 10
 """A frame_count that goes backwards to at most this restarts the world; one that goes backwards
 but stays above it is a late (reordered) datagram and is dropped (``stale``)."""
@@ -259,9 +262,14 @@ class PhysicsServer:
             c.duplicates += 1
             return self._last_reply
         else:
-            c.missed += count - self._last_count - 1
-            self.plant.step(pwm, 1.0 / rate)
-            c.steps += 1
+            # Lockstep time is frame_count / frame_rate: frames lost on the way still passed on
+            # the autopilot's clock, so the world catches up (under this packet's PWM, the
+            # newest known) instead of falling behind the autopilot for good.
+            gap = count - self._last_count
+            c.missed += gap - 1
+            for _ in range(min(gap, MAX_CATCH_UP)):
+                self.plant.step(pwm, 1.0 / rate)
+                c.steps += 1
         reply = encode_message(state_message(self.plant, count))
         self._last_count = count
         self._last_reply = reply
