@@ -270,6 +270,10 @@ class Firmware:
             return
         self.failsafe_gcs = True
         self.say(MAV_SEVERITY.CRITICAL, "GCS failsafe")
+        self._failsafe_action(action)
+
+    def _failsafe_action(self, action: int) -> None:
+        """ArduSub's failsafe actions: 1 warn (already said), 2 disarm, 3 depth hold, 4 surface."""
         if action == 2:
             self.request_arm(False)
         elif action == 3:
@@ -298,14 +302,8 @@ class Firmware:
         self.say(MAV_SEVERITY.CRITICAL, "EKF failsafe")
         if not np.all(np.isfinite(self.ekf.x)):
             self.ekf.initialised = False          # start again from the next sensor frame
-        if not self.armed:
-            return
-        if action == 2:
-            self.request_arm(False)
-        elif action == 3:
-            self._enter(Mode.ALT_HOLD)
-        elif action == 4:
-            self._enter(Mode.SURFACE)
+        if self.armed:
+            self._failsafe_action(action)
 
     def _pilot_wrench(self, t: float) -> np.ndarray:
         """Pilot demand as a wrench [X, Z, M] (N, N, N m): forward, up (−Z in FRD), pitch up."""

@@ -45,7 +45,6 @@ class ZenohForecastLink:
         self.accepted = 0
         self.rejected: Counter[str] = Counter()
         self.service_alive = False
-        self.last_seq: int | None = None
 
     def _ask_latest(self) -> None:
         """Ask the service's queryable for its newest forecast (a late joiner's catch-up); at most once a second."""
@@ -71,7 +70,6 @@ class ZenohForecastLink:
         if current is not None and forecast.valid_until < current.valid_until:
             self.rejected["superseded"] += 1      # older than what the vehicle already has
             return
-        self.last_seq = forecast.seq
         self.accepted += 1
         self.handoff.offer(forecast)
 

@@ -35,10 +35,10 @@ import numpy as np
 
 from .hal import HAL, PWM_CHANNELS
 from .params import ParameterTable
-from .scheduler import Clock, ScaledClock, SimClock
+from .scheduler import Clock, LockstepPacedClock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
-__all__ = ["JSONSITLHAL", "JSONState", "HALCounters", "PacedClock", "parse_state", "DEFAULT_TIMEOUT_S", "SERVO_MAGIC", "SERVO_PACKET"]
+__all__ = ["JSONSITLHAL", "JSONState", "HALCounters", "parse_state", "DEFAULT_TIMEOUT_S", "SERVO_MAGIC", "SERVO_PACKET"]
 
 SERVO_MAGIC = 18458
 SERVO_PACKET = struct.Struct("<HHI16H")
@@ -115,44 +115,6 @@ def parse_state(line: bytes | str) -> tuple[float, np.ndarray, np.ndarray, np.nd
     return ts, eta, nu, thrust, count
 
 
-class PacedClock:
-    """A :class:`~firmware_py.scheduler.ScaledClock` whose time origin is the plant's, started by the loop.
-
-    Until the first :meth:`sleep_until`, ``now_ns`` stands at the anchor (the
-    vehicle time of the plant's hello reply, set by :meth:`JSONSITLHAL.start`),
-    so a scheduler started afterwards puts its grid origin exactly there; the
-    first wait starts the scaled wall clock. Slot times then equal physics
-    times, which the wave forecast's time base relies on.
-    """
-
-    simulated = False
-
-    def __init__(self, speedup: float = 1.0, spin_ns: int = 1_000_000):
-        if not (speedup > 0 and math.isfinite(speedup)):
-            raise ValueError(f"speedup must be positive and finite, got {speedup}")
-        self.speedup = float(speedup)
-        self.spin_ns = int(spin_ns)
-        self._anchor_ns = 0
-        self._inner: ScaledClock | None = None
-
-    @property
-    def running(self) -> bool:
-        return self._inner is not None
-
-    def anchor(self, t_ns: int) -> None:
-        """Set the time origin (only before the clock runs)."""
-        if self._inner is None:
-            self._anchor_ns = int(t_ns)
-
-    def now_ns(self) -> int:
-        return self._anchor_ns if self._inner is None else self._inner.now_ns()
-
-    def sleep_until(self, t_ns: int) -> None:
-        if self._inner is None:
-            self._inner = ScaledClock(self.speedup, start_ns=max(int(t_ns), self._anchor_ns), spin_ns=self.spin_ns)
-        self._inner.sleep_until(t_ns)
-
-
 class JSONSITLHAL(HAL):
     """Lockstep HAL over UDP to an ArduPilot JSON SITL physics server.
 
@@ -173,7 +135,8 @@ class JSONSITLHAL(HAL):
         time equal to the plant's (see ``speedup``).
     speedup : float, optional
         Pace on the wall clock, ``speedup`` times real time, with a
-        :class:`PacedClock` anchored at the plant's hello (ignored if ``clock`` is given).
+        :class:`~firmware_py.scheduler.LockstepPacedClock` (ignored if ``clock`` is given):
+        lockstep time, moved by the replies, its slots waited for on the wall clock.
     timeout_s : float, optional
         Wall seconds to wait for a reply before the plant counts as silent
         (default ``SIM_JSON_TMO`` if the table has it, else 0.5 s).
@@ -200,7 +163,7 @@ class JSONSITLHAL(HAL):
         self.period_s = float(period_s)
         self.timeout_s = float(timeout_s)
         if clock is None:
-            clock = SimClock(0) if speedup is None else PacedClock(speedup)
+            clock = SimClock(0) if speedup is None else LockstepPacedClock(speedup)
         self.clock = clock
         self.sensors = SimulatedSensors(params, sensor_seed)
         self.counters = HALCounters()
@@ -229,8 +192,6 @@ class JSONSITLHAL(HAL):
             self._send(np.full(PWM_CHANNELS, NEUTRAL_PWM))
             wait = min(self.timeout_s, deadline - time.monotonic())
             if wait > 0 and self._await_reply(wait):
-                if isinstance(self.clock, PacedClock):
-                    self.clock.anchor(math.floor(self.state.t * 1e9))
                 return self.state
             if time.monotonic() >= deadline:
                 raise TimeoutError(f"no JSON SITL physics server answered at udp {self.address[0]}:"

@@ -53,7 +53,7 @@ from typing import Callable, Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Clock", "WallClock", "ScaledClock", "SimClock", "LockstepPacedClock", "Task", "TaskStats", "Scheduler"]
+__all__ = ["Clock", "WallClock", "SimClock", "LockstepPacedClock", "Task", "TaskStats", "Scheduler"]
 
 
 @runtime_checkable
@@ -98,31 +98,6 @@ class WallClock:
             time.sleep((remaining - self.spin_ns) * 1e-9)
         while time.monotonic_ns() < t_ns:
             pass
-
-
-class ScaledClock(WallClock):
-    """Wall time run ``speedup`` times faster, starting at ``start_ns``: ``--speedup X`` runs.
-
-    ``now_ns`` is simulated time (start + speedup × elapsed wall time); deadlines
-    are converted back to the wall clock, so the loop keeps its absolute grid.
-    With ``speedup`` 1 this is real time.
-    """
-
-    simulated = False
-
-    def __init__(self, speedup: float = 1.0, start_ns: int = 0, spin_ns: int = 1_000_000):
-        if not (speedup > 0 and math.isfinite(speedup)):
-            raise ValueError(f"speedup must be positive and finite, got {speedup}")
-        super().__init__(spin_ns)
-        self.speedup = float(speedup)
-        self._start = int(start_ns)
-        self._wall0 = time.monotonic_ns()
-
-    def now_ns(self) -> int:
-        return self._start + int((time.monotonic_ns() - self._wall0) * self.speedup)
-
-    def sleep_until(self, t_ns: int) -> None:
-        super().sleep_until(self._wall0 + int((t_ns - self._start) / self.speedup))
 
 
 class SimClock:

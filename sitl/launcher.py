@@ -62,24 +62,17 @@ class SimOptions:
     extra_params: list[str] = field(default_factory=list)
 
 
-def _check_udp_port(port: int, what: str) -> None:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
+    """A clear error (exit status 2) if a loopback port the run needs is taken."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        if kind == socket.SOCK_STREAM:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind(("127.0.0.1", port))
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
-                raise LaunchError(f"UDP port {port} ({what}) is in use: pick another with the --*-port options", 2)
-            raise
-
-
-def _check_tcp_port(port: int, what: str) -> None:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError as exc:
-            if exc.errno == errno.EADDRINUSE:
-                raise LaunchError(f"TCP port {port} ({what}) is in use: pick another with the --*-port options", 2)
+                proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
+                raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options", 2)
             raise
 
 
@@ -142,9 +135,8 @@ def launch(opt: SimOptions, progress=None) -> dict:
     from bridge.forecast import derive_seeds, oracle_forecast
     from firmware_py.config import load_mission_config
     from firmware_py.modes import Mode
-    from .metrics import DOF, station_keeping_metrics
     from .progress import ProgressBar
-    from .run import CONTROLLERS, TIMESERIES_COLUMNS, RunResult, run_label, write_run
+    from .run import CONTROLLERS, RunResult, mission_results, run_label, write_run
     from .sea import Sea
 
     if opt.controller not in CONTROLLERS:
@@ -157,11 +149,11 @@ def launch(opt: SimOptions, progress=None) -> dict:
     sp = mcfg["setpoint"]
     out = Path(opt.out)
     out.mkdir(parents=True, exist_ok=True)
-    _check_udp_port(opt.plant_port, "plant")
-    _check_udp_port(opt.gcs_port, "GCS")
+    _check_port(opt.plant_port, "plant")
+    _check_port(opt.gcs_port, "GCS")
     ff = opt.controller == "cpd_ff"
     if ff:
-        _check_tcp_port(opt.zenoh_port, "zenoh")
+        _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
 
     # One BLAS thread per process: three processes already share the cores
     env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
@@ -174,7 +166,6 @@ def launch(opt: SimOptions, progress=None) -> dict:
     children: list[_Child] = []
     gcs = None
     tlog = None
-    interrupted = False
     try:
         if ff:
             fc = cli + ["forecast", "--case", opt.case, "--seed", str(seed), "--mode", opt.forecast_mode,
@@ -265,8 +256,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
         wall = time.monotonic() - t_wall0
         command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     except KeyboardInterrupt:
-        interrupted = True
-        raise LaunchError("interrupted", 130)
+        raise LaunchError("interrupted", 130) from None
     finally:
         statuses = {c.name: c.stop() for c in reversed(children)}
         if gcs is not None:
@@ -282,23 +272,15 @@ def launch(opt: SimOptions, progress=None) -> dict:
         _, forecast_seed = derive_seeds(seed)
         forecast = oracle_forecast(sea.components, opt.snr_db, np.random.default_rng(forecast_seed))
     log = _merge_logs(truth, ticks, n, sea, forecast)
-    col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
     setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
-    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, col["tau_X"]:col["tau_M"] + 1])
     fw_stats = {}
     try:
         fw_stats = json.loads((out / "firmware_ticks.json").read_text())
     except OSError:
         pass
     results = {
-        "case": sea.name, "controller": opt.controller,
-        "forecast_snr_db": opt.snr_db if opt.controller == "cpd_ff" else None,
-        "seed": seed, "duration_s": duration, "rate_hz": rate,
-        "rmse": {k: metrics["rmse"][k] for k in DOF},
-        "max_abs_error": {k: metrics["max_error"][k] for k in DOF},
-        "mean_power_w": metrics["mean_power_w"], "energy_j": metrics["energy_j"],
-        "tick_overruns": fw_stats.get("overruns", 0),
-        "label": run_label(opt.controller, opt.snr_db),
+        **mission_results(sea, opt.controller, opt.snr_db, duration, rate, setpoint, log,
+                          fw_stats.get("overruns", 0)),
         "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
         "speedup": opt.speedup, "wall_time_s": wall,
         "speed_x_realtime": duration / wall if wall > 0 else None,

@@ -32,9 +32,9 @@ class LiveSim:
                  realtime: bool = False):
         from firmware_py.gcs import MavlinkLink
 
-        self.speedup = float(speedup)
         self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
-                                                 clock=LockstepPacedClock(self.speedup))
+                                                 clock=LockstepPacedClock(speedup))
+        # (the paced clock anchors the wall clock at the loop's first slot, so the grid starts at 0 then)
         self.firmware = self.setup.firmware
         self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)
         rate = self.setup.rate_hz
@@ -46,9 +46,6 @@ class LiveSim:
         self.scheduling = "normal"
 
     def start(self) -> "LiveSim":
-        # The firmware's clock starts now, at the plant's time 0, and the grid with it
-        self.setup.hal.clock = LockstepPacedClock(self.speedup, start_ns=0)
-        self.firmware.rebuild_scheduler(t0_ns=0)
         self.link.start()
         self._thread = threading.Thread(target=self._run, name="wavekeep-live", daemon=True)
         self._thread.start()

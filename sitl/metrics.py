@@ -1,7 +1,7 @@
 """Station-keeping figures of merit, as the paper reports them (§V): RMSE, maximum error, power.
 
 Errors are truth minus setpoint per DoF: surge x (m), heave z (m, depth), pitch θ
-(rad, reported in degrees too). Power per DoF is the paper's T200 polynomial on
+(rad; the table shows degrees). Power per DoF is the paper's T200 polynomial on
 |τ| (W), averaged over the run; energy is its time integral (J).
 """
 from __future__ import annotations
@@ -28,25 +28,25 @@ def station_keeping_metrics(t: np.ndarray, eta: np.ndarray, setpoint: np.ndarray
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.0))
     rmse = np.sqrt(np.mean(err**2, axis=0))
     max_err = np.max(np.abs(err), axis=0)
-    out = {
+    return {
         "rmse": dict(zip(DOF, rmse.tolist())),
-        "max_error": dict(zip(DOF, max_err.tolist())),
+        "max_abs_error": dict(zip(DOF, max_err.tolist())),
         "mean_power_w": dict(zip(DOF, np.mean(power, axis=0).tolist())),
         "energy_j": dict(zip(DOF, (power * dt[:, None]).sum(axis=0).tolist())),
     }
-    out["rmse"]["pitch_deg"] = float(np.degrees(rmse[2]))
-    out["max_error"]["pitch_deg"] = float(np.degrees(max_err[2]))
-    return out
 
 
 def format_table(rows: dict[str, dict]) -> str:
-    """A plain-text table of RMSE / max error / mean power per DoF, one row per run label."""
+    """A plain-text table of RMSE / max error / mean power per DoF, one row per run label.
+
+    Each row is a ``results.json``-style mapping (``rmse``, ``max_abs_error``,
+    ``mean_power_w``; pitch in rad, shown in degrees)."""
     head = f"{'run':<16}{'RMSE x (m)':>11}{'z (m)':>9}{'θ (deg)':>9}{'max x (m)':>11}{'z (m)':>9}" \
            f"{'θ (deg)':>9}{'P x (W)':>9}{'z (W)':>8}{'θ (W)':>8}"
     lines = [head, "-" * len(head)]
     for label, m in rows.items():
-        r, mx, p = m["rmse"], m["max_error"], m["mean_power_w"]
-        lines.append(f"{label:<16}{r['surge']:>11.3f}{r['heave']:>9.3f}{r['pitch_deg']:>9.2f}"
-                     f"{mx['surge']:>11.3f}{mx['heave']:>9.3f}{mx['pitch_deg']:>9.2f}"
+        r, mx, p = m["rmse"], m["max_abs_error"], m["mean_power_w"]
+        lines.append(f"{label:<16}{r['surge']:>11.3f}{r['heave']:>9.3f}{np.degrees(r['pitch']):>9.2f}"
+                     f"{mx['surge']:>11.3f}{mx['heave']:>9.3f}{np.degrees(mx['pitch']):>9.2f}"
                      f"{p['surge']:>9.2f}{p['heave']:>8.2f}{p['pitch']:>8.2f}")
     return "\n".join(lines)

@@ -26,12 +26,13 @@ from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
 from firmware_py.physics.vehicle import VehicleParams
 from firmware_py.scheduler import Clock
 
-from .metrics import DOF, station_keeping_metrics
+from .metrics import station_keeping_metrics
 from .plant import Plant
 from .progress import ProgressBar
 from .sea import Sea
 
-__all__ = ["CONTROLLERS", "MissionSetup", "build_mission", "RunResult", "run_mission", "write_run", "TIMESERIES_COLUMNS", "run_label"]
+__all__ = ["CONTROLLERS", "MissionSetup", "build_mission", "RunResult", "run_mission", "write_run", "TIMESERIES_COLUMNS", "run_label",
+           "mission_results"]
 
 CONTROLLERS = ("cpd", "cpd_ff")
 
@@ -79,18 +80,16 @@ class MissionSetup:
 
 class DSWPFeeder:
     """The forecast service's DSWP mode, in process: every ``period_s`` of simulated time, predict
-    the waves at the vehicle from the buoy's record (300 s of history at the start) and hand the
-    forecast to the firmware — what ``wavekeep forecast --mode dswp`` does over zenoh, without
-    the network's timing, so the result is deterministic."""
+    the waves at the vehicle from the buoy's last ``window_s`` of record and hand the forecast to
+    the firmware — what ``wavekeep forecast --mode dswp`` does over zenoh, without the network's
+    timing, so the result is deterministic. (The buoy has been recording before t = 0.)"""
 
-    def __init__(self, sea: Sea, fw: Firmware, x_vehicle: float, period_s: float = 0.5, window_s: float = 120.0,
-                 history_s: float = 300.0):
+    def __init__(self, sea: Sea, fw: Firmware, x_vehicle: float, period_s: float = 0.5, window_s: float = 120.0):
         from bridge.dswp import predict_from_buoy
         self._predict = predict_from_buoy
         self.sea, self.fw, self.x = sea, fw, float(x_vehicle)
         self.buoy = sea.buoy()
         self.period, self.window = float(period_s), float(window_s)
-        self._t_hist, self._eta_hist = self.buoy.record(-history_s, 0.0)
         self._next = 0.0
         self.seq = 0
 
@@ -98,15 +97,11 @@ class DSWPFeeder:
         if t + 1e-9 < self._next:
             return
         self._next = t + self.period
-        tb, eta = self.buoy.record(self._t_hist[-1] + 1e-9, t)
-        if tb.size:
-            self._t_hist, self._eta_hist = np.concatenate([self._t_hist, tb]), np.concatenate([self._eta_hist, eta])
-        keep = self._t_hist >= self._t_hist[-1] - self.window
-        self._t_hist, self._eta_hist = self._t_hist[keep], self._eta_hist[keep]
+        t_last = np.floor(t * self.buoy.sample_rate + 1e-9) / self.buoy.sample_rate   # newest sample
+        tb, eta = self.buoy.record(t_last - self.window, t_last)
         self.seq += 1
-        self.fw.forecast.offer(self._predict(self._t_hist, self._eta_hist, self.buoy.x, self.x,
-                                             self.sea.water_depth, window_s=self.window, oversample=2,
-                                             seq=self.seq))
+        self.fw.forecast.offer(self._predict(tb, eta, self.buoy.x, self.x, self.sea.water_depth,
+                                             window_s=self.window, oversample=2, seq=self.seq))
 
 
 def build_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None, seed: int | None = None,
@@ -202,20 +197,9 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
     if errors:
         raise RuntimeError(f"control task raised {errors} time(s): {stats['tasks']['control'].get('last_error')}")
 
-    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, col["tau_X"]:col["tau_M"] + 1])
     ekf = fw.ekf
     results = {
-        "case": sea.name,
-        "controller": controller,
-        "forecast_snr_db": snr_db if controller == "cpd_ff" else None,
-        "seed": seed,
-        "duration_s": duration,
-        "rate_hz": rate,
-        "rmse": {k: metrics["rmse"][k] for k in DOF},
-        "max_abs_error": {k: metrics["max_error"][k] for k in DOF},
-        "mean_power_w": metrics["mean_power_w"],
-        "energy_j": metrics["energy_j"],
-        "tick_overruns": stats["overruns"],
+        **mission_results(sea, controller, snr_db, duration, rate, setpoint, log, stats["overruns"]),
         "label": "C-PD+FF DSWP" if m.feeder is not None else run_label(controller, snr_db),
         "forecast": None if controller != "cpd_ff" else forecast_mode,
         "hs_target_m": sea.hs_target,
@@ -230,6 +214,24 @@ def run_mission(case: str = "W3", controller: str = "cpd_ff", snr_db: float | No
         "speed_x_realtime": duration / wall if wall > 0 else None,
     }
     return RunResult(results, log)
+
+
+def mission_results(sea: Sea, controller: str, snr_db: float | None, duration: float, rate: float,
+                    setpoint: np.ndarray, log: np.ndarray, tick_overruns: int) -> dict:
+    """The ``results.json`` fields every mission reports, from its time series (in-process or launched)."""
+    col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
+    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, col["tau_X"]:col["tau_M"] + 1])
+    return {
+        "case": sea.name,
+        "controller": controller,
+        "forecast_snr_db": snr_db if controller == "cpd_ff" else None,
+        "seed": sea.seed,
+        "duration_s": duration,
+        "rate_hz": rate,
+        **metrics,
+        "tick_overruns": tick_overruns,
+        "label": run_label(controller, snr_db),
+    }
 
 
 def write_run(result: RunResult, out: str | Path, plots: bool = True) -> Path:

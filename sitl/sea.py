@@ -11,7 +11,6 @@ stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 """
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -29,6 +28,8 @@ from firmware_py.physics.waves import (
     particle_kinematics,
     particle_velocity,
 )
+
+from .csvio import read_numeric_csv
 
 __all__ = [
     "jonswap_spectrum",
@@ -107,18 +108,7 @@ class MeasuredSpectrum:
 
     @classmethod
     def from_csv(cls, path: str | Path) -> "MeasuredSpectrum":
-        rows = []
-        with open(path, newline="", encoding="utf-8") as fh:
-            for i, row in enumerate(csv.reader(fh)):
-                if not row or row[0].lstrip().startswith("#"):
-                    continue
-                try:
-                    rows.append((float(row[0]), float(row[1])))
-                except (ValueError, IndexError):
-                    if i == 0:
-                        continue  # header
-                    raise ValueError(f"{path}: line {i + 1}: expected 'frequency_hz, density_m2_per_hz'") from None
-        arr = np.array(rows, dtype=float).reshape(-1, 2)
+        arr = read_numeric_csv(path, ("frequency_hz", "density_m2_per_hz"))
         return cls(arr[:, 0], arr[:, 1], source=str(path))
 
     @property

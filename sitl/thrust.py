@@ -14,14 +14,14 @@ At the end it sends neutral sticks and, if it armed the vehicle, disarms it.
 """
 from __future__ import annotations
 
-import csv
-import math
 import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .csvio import read_numeric_csv
 
 __all__ = ["ThrustProfile", "pattern_profile", "csv_profile", "stick_messages", "stream_thrust"]
 
@@ -72,22 +72,7 @@ def pattern_profile(pattern: str, axis: str, amplitude: float, duration: float, 
 
 def csv_profile(path: str | Path) -> ThrustProfile:
     """Read ``t, surge, heave, pitch`` rows (time increasing); a header line is allowed."""
-    rows = []
-    with open(path, newline="", encoding="utf-8") as fh:
-        for i, row in enumerate(csv.reader(fh)):
-            if not row or row[0].lstrip().startswith("#"):
-                continue
-            try:
-                rows.append([float(v) for v in row[:4]])
-            except ValueError:
-                if i == 0:
-                    continue
-                raise ValueError(f"{path}: line {i + 1}: expected four numbers t, surge, heave, pitch") from None
-            if len(rows[-1]) != 4 or not all(math.isfinite(v) for v in rows[-1]):
-                raise ValueError(f"{path}: line {i + 1}: expected four finite numbers t, surge, heave, pitch")
-    if not rows:
-        raise ValueError(f"{path}: no rows")
-    a = np.array(rows)
+    a = read_numeric_csv(path, ("t", "surge", "heave", "pitch"))
     if np.any(np.diff(a[:, 0]) < 0):
         raise ValueError(f"{path}: time must not decrease")
     return ThrustProfile(a[:, 0] - a[0, 0], a[:, 1:])

@@ -41,7 +41,7 @@ def corrupt(payload: bytes, offset: int, fmt: str, value) -> bytes:
 @pytest.mark.parametrize("mutate, reason", [
     (lambda b: b[:10], "truncated"),
     (lambda b: b[:-1], "bad_length"),
-    (lambda b: b"XXXX" + b[4:], "bad_magic"),
+    (lambda b: b"WKBY" + b[4:], "bad_magic"),          # a buoy record's magic on the forecast key
     (lambda b: corrupt(b, 4, "<H", 2), "bad_version"),
     (lambda b: corrupt(b, 16, "<I", 0), "bad_count"),
     (lambda b: corrupt(b, 20, "<d", float("nan")), "non_finite"),
@@ -172,9 +172,7 @@ def test_network_config_defaults_to_loopback():
 def test_service_oracle_forecasts_follow_the_buoy_clock_and_die_with_the_service(sessions):
     """Plant-side buoy → service (oracle) → vehicle subscriber; the service going away is
     reported, and its last forecast stops being valid at the end of its window."""
-    import zenoh
     from bridge.forecast_service import ForecastService
-    from bridge.zenoh_net import load_network_config
     from sitl.buoy_publisher import BuoyPublisher
 
     service_session, vehicle = sessions

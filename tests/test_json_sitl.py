@@ -20,7 +20,7 @@ from firmware_py.firmware import Firmware
 from firmware_py.hal_json import JSONSITLHAL, parse_state
 from firmware_py.modes import Mode
 from firmware_py.params import load_params
-from firmware_py.scheduler import ScaledClock
+from firmware_py.scheduler import WallClock
 from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
 from firmware_py.physics.vehicle import VehicleParams
 from sitl.physics_server import MAGIC_16, MAGIC_32, PhysicsServer, PortInUseError
@@ -290,7 +290,7 @@ def test_mission_over_json_sitl_is_identical_to_in_process(server):
     assert server.snapshot().t == pytest.approx(duration, abs=1e-9)
 
 
-def test_paced_run_on_a_scaled_clock(server):
+def test_paced_run_on_a_lockstep_paced_clock(server):
     """--speedup: the firmware paces on the wall clock; the grid starts at the hello's time (0)."""
     ticks = 20
     ref = run_mission("W1", "cpd_ff", duration=ticks * H).timeseries
@@ -319,11 +319,11 @@ def test_paced_run_on_a_scaled_clock(server):
 
 
 def test_a_real_clock_swapped_in_is_not_moved_by_replies(server):
-    """A launcher may start in lockstep and swap in a ScaledClock: replies must not make the HAL sleep."""
+    """A launcher may start in lockstep and swap in a real clock: replies must not make the HAL sleep."""
     hal = JSONSITLHAL(("127.0.0.1", server.port), load_params(), H, 1)
     try:
         hal.start()
-        hal.clock = ScaledClock(1.0, start_ns=0)
+        hal.clock = WallClock()
         w0 = time.monotonic()
         for _ in range(4):
             hal.write_pwm(np.full(8, 1500))

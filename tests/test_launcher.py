@@ -62,6 +62,20 @@ def test_a_port_in_use_is_a_clear_error(tmp_path):
     assert info.value.status == 2 and str(opt.plant_port) in str(info.value)
 
 
+def start_sim_process(tmp_path) -> subprocess.Popen:
+    """``wavekeep sim`` (C-PD, a 600 s mission at real time) as a process, once its firmware is ready."""
+    opt = options(tmp_path, controller="cpd", duration=600.0, speedup=1.0)
+    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
+           "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
+           "--zenoh-port", str(opt.zenoh_port)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = Path(opt.out) / "firmware.log"
+    end = time.monotonic() + 60
+    while time.monotonic() < end and not (log.exists() and "ready" in log.read_text()):
+        time.sleep(0.1)
+    return proc
+
+
 def _children_of(pid: int) -> list[int]:
     out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True)
     return [int(p) for p in out.stdout.split()]
@@ -70,16 +84,8 @@ def _children_of(pid: int) -> list[int]:
 @pytest.mark.parametrize("victim", ["plant", "firmware"])
 def test_a_dying_child_stops_everything_and_leaves_no_orphan(tmp_path, victim):
     """Kill the plant or the firmware mid-mission: the launcher exits 1, naming it, and every process is gone."""
-    opt = options(tmp_path, controller="cpd", duration=600.0, speedup=1.0)
-    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
-           "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
-           "--zenoh-port", str(opt.zenoh_port)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = start_sim_process(tmp_path)
     try:
-        log = Path(opt.out) / "firmware.log"
-        end = time.monotonic() + 60
-        while time.monotonic() < end and not (log.exists() and "ready" in log.read_text()):
-            time.sleep(0.1)
         time.sleep(2.0)
         kids = _children_of(proc.pid)
         assert len(kids) == 2            # plant and firmware (no forecast service for C-PD)
@@ -96,15 +102,7 @@ def test_a_dying_child_stops_everything_and_leaves_no_orphan(tmp_path, victim):
 
 
 def test_ctrl_c_stops_every_process(tmp_path):
-    opt = options(tmp_path, controller="cpd", duration=600.0)
-    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
-           "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
-           "--zenoh-port", str(opt.zenoh_port)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    log = Path(opt.out) / "firmware.log"
-    end = time.monotonic() + 60
-    while time.monotonic() < end and not (log.exists() and "ready" in log.read_text()):
-        time.sleep(0.1)
+    proc = start_sim_process(tmp_path)
     time.sleep(1.0)
     kids = _children_of(proc.pid)
     proc.send_signal(signal.SIGINT)

@@ -16,7 +16,7 @@ firmware's estimator and feed-forward (nominal parameters).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,8 +29,6 @@ __all__ = [
     "coriolis_matrix",
     "damping_matrix",
     "restoring_forces",
-    "coriolis_forces",
-    "nu_dot",
     "rk4_step",
     "motor_lag_stages",
     "state_rates",
@@ -100,10 +98,6 @@ class VehicleParams:
     def D_Q(self) -> np.ndarray:
         return np.diag([self.X_uu, self.Z_ww, self.M_qq])
 
-    def scaled(self, **factors: float) -> "VehicleParams":
-        """A copy with named scalar parameters multiplied by the given factors (model mismatch studies)."""
-        return replace(self, **{k: getattr(self, k) * v for k, v in factors.items()})
-
     @classmethod
     def from_config(cls, cfg: dict) -> "VehicleParams":
         """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`firmware_py.config`)."""
@@ -165,15 +159,6 @@ def restoring_forces(p: VehicleParams, eta: np.ndarray) -> np.ndarray:
     ])
 
 
-def coriolis_forces(p: VehicleParams, nu) -> np.ndarray:
-    """C(ν) ν without forming the matrix."""
-    u, w, q = nu
-    M = p.M
-    p_x = M[0, 0] * u + M[0, 2] * q
-    p_z = M[1, 1] * w + M[1, 2] * q
-    return np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
-
-
 @dataclass(frozen=True)
 class BodyFlow:
     """Fluid velocity and local acceleration at the body's strips, body frame, at T instants.
@@ -189,17 +174,16 @@ class BodyFlow:
     ax: np.ndarray
     az: np.ndarray
 
+    def __post_init__(self) -> None:
+        # The scalar hot path (state_rates) reads each instant as float lists: convert once
+        xs, wts = self.xs.tolist(), self.wts.tolist()
+        stages = tuple((xs, wts, u, w, ax, az) for u, w, ax, az in
+                       zip(self.u.tolist(), self.w.tolist(), self.ax.tolist(), self.az.tolist()))
+        object.__setattr__(self, "_stages", stages)
+
     def stage(self, i: int) -> tuple:
         """The flow at instant i as plain float lists (the scalar hot path's input)."""
-        return (self._xs, self._wts, self.u[i].tolist(), self.w[i].tolist(), self.ax[i].tolist(), self.az[i].tolist())
-
-    @property
-    def _xs(self) -> list:
-        return self.xs.tolist()
-
-    @property
-    def _wts(self) -> list:
-        return self.wts.tolist()
+        return self._stages[i]
 
 
 def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
@@ -308,11 +292,6 @@ def motor_lag_stages(f_cmd: np.ndarray, f0: np.ndarray, t_m: float, offsets) -> 
     """
     lag = np.exp(-np.asarray(offsets, dtype=float) / t_m)
     return f_cmd + np.outer(lag, f0 - f_cmd)
-
-
-def nu_dot(p: VehicleParams, eta, nu, tau) -> np.ndarray:
-    """ν̇ = M⁻¹ (τ − C(ν)ν − D(ν)ν − g(η)), with τ the total (control + wave) load."""
-    return state_rates(p, np.concatenate([eta, nu]), tau)[3:]
 
 
 def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:
