@@ -16,8 +16,8 @@ import tempfile
 import time
 
 from benchmarks.common import write
-from sitl.reproduce import reproduce
-from sitl.run import run_mission
+from sitl.harness.reproduce import reproduce
+from sitl.harness.run import run_mission
 
 
 def main(with_reproduce: bool = True) -> dict:

@@ -24,7 +24,7 @@ def mavlink_round_trip(n: int = 200) -> dict:
     os.environ["MAVLINK20"] = "1"
     from pymavlink import mavutil
 
-    from sitl.live import LiveSim
+    from sitl.harness.live import LiveSim
 
     port = _free_port()
     gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, dialect="ardupilotmega")

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from benchmarks.common import percentiles_us, timed, write
-from firmware_py.physics.vehicle import strip_nodes
+from bridge.models.vehicle import strip_nodes
 from sitl.plant import Plant
 from sitl.sea import Sea, load_sea_config
 

@@ -4,7 +4,7 @@ with and without SCHED_FIFO (where permitted).
     python -m benchmarks.bench_timing [--seconds 60]     # writes benchmarks/results/timing.json
 
 The loop is the real one: world + firmware (C-PD+FF over 200 components) + MAVLink
-link in :class:`sitl.live.LiveSim`, paced at real time by LockstepPacedClock,
+link in :class:`sitl.harness.live.LiveSim`, paced at real time by LockstepPacedClock,
 whose wake-up errors are the start jitter. "Loaded" runs two busy processes,
 one per core, for the duration (stopped at the end).
 """
@@ -31,7 +31,7 @@ def _free_port() -> int:
 
 
 def one(seconds: float, loaded: bool, realtime: bool) -> dict:
-    from sitl.live import LiveSim
+    from sitl.harness.live import LiveSim
 
     burners = []
     if loaded:

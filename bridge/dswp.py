@@ -8,7 +8,7 @@ that the feed-forward evaluates like any other (``Forecast.components()``).
 
 Model
 -----
-Waves travel towards +x (phase θ = k x − ω t + ε, :mod:`firmware_py.physics.waves`).
+Waves travel towards +x (phase θ = k x − ω t + ε, :mod:`bridge.models.waves`).
 The buoy at x_b records ζ_b(t_n), n = 0 … N−1, uniformly sampled with step Δt,
 t_0 … t_e (t_e the newest sample used, the *time base* t_b = t_e). The fit is
 
@@ -67,7 +67,7 @@ Fitting choices
   is not the default (the default reproduces the authors' FFT method and is
   exact for on-bin lines).
 * **Propagation**: k_i from the finite-depth dispersion relation
-  ω² = g k tanh k d (:func:`~firmware_py.physics.waves.wavenumber`), or the
+  ω² = g k tanh k d (:func:`~bridge.models.waves.wavenumber`), or the
   deep-water k = ω²/g with ``deep_water=True`` — the authors' deliberate
   mismatch with their finite-depth truth, kept to reproduce it.
 * **Linear**: the forecast has ``second_order=False``. The record already holds
@@ -113,7 +113,7 @@ from __future__ import annotations
 import numpy as np
 
 from bridge.forecast import Forecast
-from firmware_py.physics.waves import G, wavenumber
+from bridge.models.waves import G, wavenumber
 
 __all__ = ["predict_from_buoy", "group_velocity", "predictable_zone", "TAPERS"]
 

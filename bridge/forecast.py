@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_py.physics.waves import WaveComponents
+from bridge.models.waves import WaveComponents
 
 __all__ = ["Forecast", "inject_spectral_noise", "oracle_forecast", "derive_seeds"]
 

@@ -98,13 +98,13 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from bridge.configfile import ConfigError
     from bridge.forecast import derive_seeds
-    from .config import load_mission_config, load_vehicle_config
+    from bridge.schemas import load_mission_config, load_vehicle_config
     from .firmware import Firmware
     from .gcs import MavlinkLink, load_signing_key
     from .hal_json import JSONSITLHAL
     from .params import load_params
-    from .physics.thrusters import T200Curve, ThrusterLayout
-    from .physics.vehicle import VehicleParams
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.models.vehicle import VehicleParams
     from .scheduler import LockstepPacedClock, Task
 
     stop = threading.Event()

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import ParameterTable
-from .physics.vehicle import VehicleParams, restoring_forces
+from bridge.models.vehicle import VehicleParams, restoring_forces
 
 __all__ = ["ControlOutput", "StationKeepingController"]
 

@@ -2,7 +2,7 @@
 
 State x = [x, z, θ, u, w, q] (NED position m, depth m, pitch rad; body velocities
 m/s and pitch rate rad/s). Prediction runs the shared vehicle model
-(:func:`~firmware_py.physics.vehicle.rk4_step`, nominal parameters) driven by
+(:func:`~bridge.models.vehicle.rk4_step`, nominal parameters) driven by
 the thrust the firmware commanded (through its motor-lag model) plus, when a
 forecast is in use, the predicted wave load. Its Jacobian F is taken from the
 continuous model by finite differences, F ≈ I + A h + (A h)²/2.
@@ -22,7 +22,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
 from .params import ParameterTable
-from .physics.vehicle import BodyFlow, VehicleParams, rk4_step, state_rates
+from bridge.models.vehicle import BodyFlow, VehicleParams, rk4_step, state_rates
 from .sensors import SensorFrame
 
 __all__ = ["PlanarEKF", "MEASURED_STATES", "CHANNELS"]

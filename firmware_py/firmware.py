@@ -6,7 +6,7 @@
 ArduPilot's split: the scheduler runs the task on an absolute time grid; the
 estimator, controller and mixer are separate modules; every tunable is in the
 parameter table. The feed-forward is the negated wave load predicted by the
-same model the plant uses (:func:`~firmware_py.physics.vehicle.hydrodynamic_load`)
+same model the plant uses (:func:`~bridge.models.vehicle.hydrodynamic_load`)
 with nominal parameters and the forecast's flow at the estimated pose and
 velocity; the same predicted flow drives the estimator's prediction.
 """
@@ -26,8 +26,8 @@ from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mode
 from .params import ParameterTable
-from .physics.thrusters import T200Curve, ThrusterLayout
-from .physics.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 

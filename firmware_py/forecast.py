@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bridge.forecast import Forecast
-from .physics.waves import WaveComponents
+from bridge.models.waves import WaveComponents
 
 __all__ = ["ForecastHandoff", "ActiveForecast"]
 

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import ParameterTable
-from .physics.thrusters import T200Curve, ThrusterLayout
-from .physics.vehicle import motor_lag_stages
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import motor_lag_stages
 
 __all__ = ["MixerOutput", "MotorMixer"]
 

@@ -5,7 +5,7 @@ thrusters' actual thrusts f (N). The thrusters follow their PWM
 command through the T200 curve with a first-order lag (time constant t_m); the
 body moves under paper Eq. 2 with τ = B_μ f, its damping and added-mass
 Coriolis forces taken on the velocity relative to the water and the fluid's
-inertia force of Eq. 11 (see :func:`~firmware_py.physics.vehicle.hydrodynamic_load`).
+inertia force of Eq. 11 (see :func:`~bridge.models.vehicle.hydrodynamic_load`).
 
 Each control period is integrated with ``substeps`` classical RK4 steps; the
 motor lag is solved exactly over the period (the PWM is held constant). The
@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from firmware_py.config import load_mission_config, load_vehicle_config
-from firmware_py.physics.thrusters import T200Curve, ThrusterLayout, power_per_dof
-from firmware_py.physics.vehicle import (
+from bridge.schemas import load_mission_config, load_vehicle_config
+from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
+from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
     hydrodynamic_load,

@@ -1,8 +1,8 @@
 """The simulated sea: spectra, their discretisation into components, and a wave buoy.
 
-A :class:`Sea` is a set of :class:`~firmware_py.physics.waves.WaveComponents`
+A :class:`Sea` is a set of :class:`~bridge.models.waves.WaveComponents`
 drawn from a spectrum with seeded random phases; its kinematics come from the
-shared module :mod:`firmware_py.physics.waves` (paper Eqs. 5, 9, 10).
+shared module :mod:`bridge.models.waves` (paper Eqs. 5, 9, 10).
 
 Spectra are one-sided, in m²·s/rad over ω in rad/s. The JONSWAP form is the
 physically consistent one of REFERENCE §1 (Γ with its minus sign, scaled to the
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.integrate import quad
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
-from firmware_py.physics.waves import (
+from bridge.models.waves import (
     G,
     WaveComponents,
     elevation,
@@ -29,7 +29,7 @@ from firmware_py.physics.waves import (
     particle_velocity,
 )
 
-from .csvio import read_numeric_csv
+from bridge.csvio import read_numeric_csv
 
 __all__ = [
     "jonswap_spectrum",

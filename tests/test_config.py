@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from bridge.configfile import ConfigError, configs_dir
-from firmware_py.config import load_mission_config, load_vehicle_config
-from sitl.cli import main as wavekeep
+from bridge.schemas import load_mission_config, load_vehicle_config
+from sitl.harness.cli import main as wavekeep
 from sitl.sea import Sea, load_sea_config
 
 CONFIGS = configs_dir()

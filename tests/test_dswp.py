@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bridge.dswp import group_velocity, predict_from_buoy, predictable_zone
-from firmware_py.physics.waves import G, WaveComponents, elevation, particle_kinematics, wavenumber
+from bridge.models.waves import G, WaveComponents, elevation, particle_kinematics, wavenumber
 from sitl.sea import Sea
 
 DEPTH = 54.0

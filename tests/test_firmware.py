@@ -8,13 +8,13 @@ import pytest
 
 from bridge.configfile import ConfigError
 from bridge.forecast import Forecast, inject_spectral_noise, oracle_forecast
-from firmware_py.config import load_vehicle_config
+from bridge.schemas import load_vehicle_config
 from firmware_py.forecast import ForecastHandoff
 from firmware_py.mixer import MotorMixer
 from firmware_py.params import PARAM_DEFS, load_params
-from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
-from firmware_py.physics.waves import elevation
-from sitl.run import TIMESERIES_COLUMNS, run_mission
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.waves import elevation
+from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.sea import Sea
 
 COL = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
@@ -120,7 +120,7 @@ def test_ekf_error_is_consistent_with_its_covariance():
 
 def test_ekf_gates_outliers_and_recovers():
     from firmware_py.estimator import PlanarEKF
-    from firmware_py.physics.vehicle import VehicleParams
+    from bridge.models.vehicle import VehicleParams
     from firmware_py.sensors import SensorFrame
 
     params = load_params()

@@ -28,7 +28,7 @@ def free_port(kind=socket.SOCK_DGRAM) -> int:
 
 def start(args, log: Path) -> subprocess.Popen:
     env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1")
-    return subprocess.Popen([sys.executable, "-m", "sitl.cli", *args], stdout=open(log, "w"),
+    return subprocess.Popen([sys.executable, "-m", "sitl.harness.cli", *args], stdout=open(log, "w"),
                             stderr=subprocess.STDOUT, env=env, start_new_session=True)
 
 

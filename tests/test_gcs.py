@@ -1,6 +1,6 @@
 """The MAVLink link against a live vehicle: real UDP/TCP on 127.0.0.1, a real pymavlink ground station, no mocks.
 
-The vehicle is :class:`sitl.live.LiveSim` (plant + firmware + link on the wall
+The vehicle is :class:`sitl.harness.live.LiveSim` (plant + firmware + link on the wall
 clock, in a background thread). Checks are on behaviour, with generous
 deadlines, so that they hold on a loaded two-core machine; rates are measured
 on the vehicle's own timestamps (time_boot_ms) where a message carries one.
@@ -28,7 +28,7 @@ from firmware_py.gcs import CAPABILITIES, MavlinkLink, load_signing_key  # noqa:
 from firmware_py.modes import MAV_RESULT, Mode  # noqa: E402
 from firmware_py.params import load_params  # noqa: E402
 from firmware_py.sensors import depth_to_pressure  # noqa: E402
-from sitl.live import LiveSim  # noqa: E402
+from sitl.harness.live import LiveSim  # noqa: E402
 
 SUB_MODES = {0: "STABILIZE", 2: "ALT_HOLD", 4: "GUIDED", 9: "SURFACE", 16: "POSHOLD", 19: "MANUAL"}
 SERVO = mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW
@@ -686,7 +686,7 @@ def test_a_second_endpoint_gets_its_own_replies(v):
 
 def test_tcp_server_endpoint_with_the_loop_driven_by_hand():
     """``tcpin:`` with a pymavlink ``tcp:`` client; the link's task is called as a scheduler would."""
-    from sitl.run import build_mission
+    from sitl.harness.run import build_mission
     m = build_mission("W1", "cpd", params=load_params())
     port = free_port(socket.SOCK_STREAM)
     link = MavlinkLink(m.firmware, [f"tcpin:127.0.0.1:{port}"]).start()
@@ -725,7 +725,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
     import dataclasses
 
     import numpy as np
-    from sitl.run import build_mission
+    from sitl.harness.run import build_mission
     m = build_mission("W1", "cpd", params=load_params())
     fw = m.firmware
     link = MavlinkLink(fw, [f"udpout:127.0.0.1:{free_port()}"])
@@ -752,7 +752,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
 
 
 def test_bad_construction_is_refused():
-    from sitl.run import build_mission
+    from sitl.harness.run import build_mission
     fw = build_mission("W1", "cpd", params=load_params()).firmware
     for bad in ("serial:/dev/ttyS0", "udpout:127.0.0.1", "udpin:host:port", "tcp::5760", "udpout:127.0.0.1:0"):
         with pytest.raises(ValueError):

@@ -15,17 +15,17 @@ import numpy as np
 import pytest
 
 from bridge.forecast import derive_seeds, oracle_forecast
-from firmware_py.config import load_mission_config, load_vehicle_config
+from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.firmware import Firmware
 from firmware_py.hal_json import JSONSITLHAL, parse_state
 from firmware_py.modes import Mode
 from firmware_py.params import load_params
 from firmware_py.scheduler import WallClock
-from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
-from firmware_py.physics.vehicle import VehicleParams
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import VehicleParams
 from sitl.physics_server import MAGIC_16, MAGIC_32, PhysicsServer, PortInUseError
 from sitl.plant import Plant
-from sitl.run import TIMESERIES_COLUMNS, run_mission
+from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.sea import Sea
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -233,7 +233,7 @@ def test_parse_state_without_wavekeep_fields(client):
 
 # ---------------------------------------------------------------------------- firmware over UDP
 def build_json_firmware(address, case="W1", controller="cpd_ff", timeout_s=None, speedup=None):
-    """sitl.run.build_mission, with the JSON SITL HAL in place of the in-process one."""
+    """sitl.harness.run.build_mission, with the JSON SITL HAL in place of the in-process one."""
     sea = Sea.load(case)
     mcfg, vcfg = load_mission_config("station_keeping"), load_vehicle_config("bluerov2_heavy")
     params = load_params().copy()

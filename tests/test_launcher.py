@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sitl.launcher import LaunchError, SimOptions, launch
-from sitl.run import run_mission, write_run
+from sitl.harness.launcher import LaunchError, SimOptions, launch
+from sitl.harness.run import run_mission, write_run
 
 
 def free_port(kind=socket.SOCK_DGRAM) -> int:
@@ -65,7 +65,7 @@ def test_a_port_in_use_is_a_clear_error(tmp_path):
 def start_sim_process(tmp_path) -> subprocess.Popen:
     """``wavekeep sim`` (C-PD, a 600 s mission at real time) as a process, once its firmware is ready."""
     opt = options(tmp_path, controller="cpd", duration=600.0, speedup=1.0)
-    cmd = [sys.executable, "-m", "sitl.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
+    cmd = [sys.executable, "-m", "sitl.harness.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
            "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
            "--zenoh-port", str(opt.zenoh_port)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

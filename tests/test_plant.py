@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from firmware_py.physics.vehicle import (
+from bridge.models.vehicle import (
     J,
     VehicleParams,
     body_flow,
@@ -18,7 +18,7 @@ from firmware_py.physics.vehicle import (
     strip_nodes,
     wave_load,
 )
-from firmware_py.physics.waves import WaveComponents
+from bridge.models.waves import WaveComponents
 from sitl.plant import Plant
 from sitl.sea import Sea
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sitl.plots import LABELS, REPRODUCE_FIGURES, plot_reproduce, plot_run
-from sitl.run import TIMESERIES_COLUMNS, RunResult, run_mission, write_run
+from sitl.harness.plots import LABELS, REPRODUCE_FIGURES, plot_reproduce, plot_run
+from sitl.harness.run import TIMESERIES_COLUMNS, RunResult, run_mission, write_run
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 CASES = ("W1", "W2", "W3")

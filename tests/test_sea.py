@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.signal import welch
 
-from firmware_py.physics.waves import (
+from bridge.models.waves import (
     G,
     WaveComponents,
     elevation,

@@ -17,19 +17,19 @@ from pathlib import Path
 import numpy as np
 
 from bridge.forecast import Forecast, derive_seeds, oracle_forecast
-from firmware_py.config import load_mission_config, load_vehicle_config
+from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.firmware import TICK_COLUMNS, Firmware, tick_row
 from firmware_py.hal import InProcessSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
-from firmware_py.physics.thrusters import T200Curve, ThrusterLayout
-from firmware_py.physics.vehicle import VehicleParams
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import VehicleParams
 from firmware_py.scheduler import Clock
 
 from .metrics import station_keeping_metrics
-from .plant import Plant
+from sitl.plant import Plant
 from .progress import ProgressBar
-from .sea import Sea
+from sitl.sea import Sea
 
 __all__ = ["CONTROLLERS", "MissionSetup", "build_mission", "RunResult", "run_mission", "write_run", "TIMESERIES_COLUMNS", "run_label",
            "mission_results"]
@@ -58,7 +58,7 @@ class RunResult:
 
 
 def elevation_along(components, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
-    from firmware_py.physics.waves import elevation
+    from bridge.models.waves import elevation
     return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
 
 

@@ -133,11 +133,11 @@ def launch(opt: SimOptions, progress=None) -> dict:
     from pymavlink import mavutil
 
     from bridge.forecast import derive_seeds, oracle_forecast
-    from firmware_py.config import load_mission_config
+    from bridge.schemas import load_mission_config
     from firmware_py.modes import Mode
     from .progress import ProgressBar
     from .run import CONTROLLERS, RunResult, mission_results, run_label, write_run
-    from .sea import Sea
+    from sitl.sea import Sea
 
     if opt.controller not in CONTROLLERS:
         raise LaunchError(f"controller must be one of {CONTROLLERS}", 2)
@@ -162,7 +162,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
         "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],
         "connect": [f"tcp/127.0.0.1:{opt.zenoh_port}"], "multicast_scouting": False,
         "gossip_scouting": True, "scouting_delay_ms": 0}}))
-    cli = [sys.executable, "-m", "sitl.cli"]
+    cli = [sys.executable, "-m", "sitl.harness.cli"]
     children: list[_Child] = []
     gcs = None
     tlog = None
@@ -295,7 +295,7 @@ def _merge_logs(truth: np.ndarray, ticks: np.ndarray, n: int, sea, forecast) -> 
 
     Row k (k = 1 … n) holds the truth at t_k, what the firmware's tick k saw and did
     (:data:`~firmware_py.firmware.TICK_COLUMNS`), and the wave load at the end of that
-    tick's period — as :func:`sitl.run.run_mission` logs it.
+    tick's period — as :func:`sitl.harness.run.run_mission` logs it.
     """
     from .run import TIMESERIES_COLUMNS, elevation_along
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_py.physics.thrusters import power_per_dof
+from bridge.models.thrusters import power_per_dof
 
 __all__ = ["DOF", "station_keeping_metrics", "format_table"]
 

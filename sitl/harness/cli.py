@@ -42,9 +42,9 @@ def _add_common(p: argparse.ArgumentParser) -> None:
 
 def cmd_sea(args) -> int:
     """Write t, eta, u, w at the vehicle's station (x from the mission, depth from the mission)."""
-    from firmware_py.config import load_mission_config
-    from firmware_py.physics.waves import particle_kinematics_grid
-    from .sea import Sea
+    from bridge.schemas import load_mission_config
+    from bridge.models.waves import particle_kinematics_grid
+    from sitl.sea import Sea
 
     sea = Sea.load(args.case, seed=args.seed)
     mission = load_mission_config(args.mission)
@@ -73,11 +73,11 @@ def cmd_sea(args) -> int:
 
 def cmd_openloop(args) -> int:
     """The passive vehicle (all thrusters at 1500 µs) released at the setpoint in the sea."""
-    from firmware_py.config import load_mission_config
+    from bridge.schemas import load_mission_config
     from .metrics import format_table, station_keeping_metrics
-    from .plant import Plant
+    from sitl.plant import Plant
     from .progress import ProgressBar
-    from .sea import Sea
+    from sitl.sea import Sea
 
     sea = Sea.load(args.case, seed=args.seed)
     mission = load_mission_config(args.mission)
@@ -193,8 +193,8 @@ def cmd_forecast(args) -> int:
     from bridge.forecast import derive_seeds, oracle_forecast
     from bridge.forecast_service import ForecastService
     from bridge.zenoh_net import load_network_config, open_session
-    from firmware_py.config import load_mission_config
-    from .sea import Sea
+    from bridge.schemas import load_mission_config
+    from sitl.sea import Sea
 
     net = load_network_config(args.network)
     site = args.site or net["site"]

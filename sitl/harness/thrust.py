@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .csvio import read_numeric_csv
+from bridge.csvio import read_numeric_csv
 
 __all__ = ["ThrustProfile", "pattern_profile", "csv_profile", "stick_messages", "stream_thrust"]
 

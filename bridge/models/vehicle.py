@@ -100,7 +100,7 @@ class VehicleParams:
 
     @classmethod
     def from_config(cls, cfg: dict) -> "VehicleParams":
-        """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`firmware_py.config`)."""
+        """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`bridge.schemas`)."""
         mp, am, dp = cfg["mass_properties"], cfg["added_mass"], cfg["damping"]
         return cls(W=mp["W"], B=mp["B"], I_y=mp["I_y"], r_G=np.array(mp["r_G"]), r_B=np.array(mp["r_B"]),
                    length=mp["length"], height=mp["height"], X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
@@ -109,7 +109,7 @@ class VehicleParams:
 
     @classmethod
     def load(cls, path: str | Path) -> "VehicleParams":
-        from firmware_py.config import load_vehicle_config
+        from bridge.schemas import load_vehicle_config
         return cls.from_config(load_vehicle_config(path))
 
 

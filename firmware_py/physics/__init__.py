@@ -1,1 +1,0 @@
-"""Physics shared by the firmware (nominal parameters) and the SITL world (true parameters)."""
