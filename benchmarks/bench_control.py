@@ -18,12 +18,13 @@ import time
 from benchmarks.common import write
 from sitl.harness.reproduce import reproduce
 from sitl.harness.run import run_mission
+from sitl.harness.spec import RunSpec
 
 
 def main(with_reproduce: bool = True) -> dict:
     figures: dict = {"control_tick": {}, "mission": {}}
     for controller in ("cpd", "cpd_ff"):
-        r = run_mission("W3", controller, duration=600.0).results
+        r = run_mission(RunSpec("W3", controller, duration=600.0)).results
         figures["control_tick"][controller] = r["control_tick"]
         figures["mission"][controller] = {"sim_s": r["duration_s"], "wall_s": r["wall_time_s"],
                                           "x_realtime": r["speed_x_realtime"], "tick_overruns": r["tick_overruns"]}

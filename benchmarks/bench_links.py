@@ -25,11 +25,12 @@ def mavlink_round_trip(n: int = 200) -> dict:
     from pymavlink import mavutil
 
     from sitl.harness.live import LiveSim
+    from sitl.harness.spec import RunSpec
 
     port = _free_port()
     gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, dialect="ardupilotmega")
     rtt = []
-    with LiveSim("W3", "cpd_ff", mavlink=[f"udpout:127.0.0.1:{port}"], speedup=1.0) as sim:
+    with LiveSim(RunSpec("W3", "cpd_ff"), mavlink=[f"udpout:127.0.0.1:{port}"], speedup=1.0) as sim:
         gcs.wait_heartbeat(timeout=20)
         # All streams at their defaults: full telemetry while we measure
         for _ in range(n):

@@ -32,6 +32,7 @@ def _free_port() -> int:
 
 def one(seconds: float, loaded: bool, realtime: bool) -> dict:
     from sitl.harness.live import LiveSim
+    from sitl.harness.spec import RunSpec
 
     burners = []
     if loaded:
@@ -40,7 +41,7 @@ def one(seconds: float, loaded: bool, realtime: bool) -> dict:
         for b in burners:
             b.start()
     try:
-        with LiveSim("W3", "cpd_ff", mavlink=[f"udpout:127.0.0.1:{_free_port()}"], speedup=1.0,
+        with LiveSim(RunSpec("W3", "cpd_ff"), mavlink=[f"udpout:127.0.0.1:{_free_port()}"], speedup=1.0,
                      realtime=realtime) as sim:
             time.sleep(seconds)
             clock = sim.firmware.hal.clock

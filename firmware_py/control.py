@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .params import ParameterTable
-from bridge.models.vehicle import VehicleParams, restoring_forces
+from bridge.models.vehicle import VehicleParams, ned_to_body, restoring_forces
 
 __all__ = ["ControlOutput", "StationKeepingController"]
 
@@ -57,8 +57,7 @@ class StationKeepingController:
         p = self.params
         eta, nu = x_hat[:3], x_hat[3:]
         e_n = np.asarray(setpoint, dtype=float) - eta
-        c, s = math.cos(eta[2]), math.sin(eta[2])
-        e = np.array([c * e_n[0] - s * e_n[1], s * e_n[0] + c * e_n[1], e_n[2]])
+        e = np.array([*ned_to_body(float(eta[2]), e_n[0], e_n[1]), e_n[2]])
         de = np.zeros(3) if self._prev_error is None else (e - self._prev_error) / dt
         self._prev_error = e
         kp, kd = np.array(p.axes("WK_PD_KP")), np.array(p.axes("WK_PD_KD"))

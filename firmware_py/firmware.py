@@ -26,7 +26,7 @@ from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mode
 from .params import ParameterTable
-from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
@@ -363,7 +363,7 @@ class Firmware:
         if not self.armed:
             mix = self.mixer.neutral()
         elif self._motor_test is not None and t <= self._motor_test.until:
-            pwm = np.full(self.mixer.layout.n, 1500, dtype=np.int64)
+            pwm = np.full(self.mixer.layout.n, NEUTRAL_PWM_US, dtype=np.int64)
             pwm[self._motor_test.motor] = self._motor_test.pwm
             mix = self.mixer.output(pwm)
         else:

@@ -17,6 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
+from bridge.models.thrusters import NEUTRAL_PWM_US
+
 from .params import ParameterTable
 from .scheduler import Clock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
@@ -61,7 +63,7 @@ class InProcessSITLHAL(HAL):
         self.period_s = float(period_s)
         self.clock = clock if clock is not None else SimClock(start_ns=int(round(plant.state.t * 1e9)))
         self.sensors = SimulatedSensors(params, sensor_seed)
-        self.last_pwm = np.full(PWM_CHANNELS, 1500, dtype=np.int64)
+        self.last_pwm = np.full(PWM_CHANNELS, NEUTRAL_PWM_US, dtype=np.int64)
 
     def read_sensors(self) -> SensorFrame:
         s = self.plant.state

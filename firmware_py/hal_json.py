@@ -24,27 +24,25 @@ SITL does.
 """
 from __future__ import annotations
 
-import json
 import math
 import socket
-import struct
 import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from bridge.json_sitl import decode_state, servo_packet
+from bridge.models.thrusters import NEUTRAL_PWM_US
 
 from .hal import HAL, PWM_CHANNELS
 from .params import ParameterTable
 from .scheduler import Clock, LockstepPacedClock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
-__all__ = ["JSONSITLHAL", "JSONState", "HALCounters", "parse_state", "DEFAULT_TIMEOUT_S", "SERVO_MAGIC", "SERVO_PACKET"]
+__all__ = ["JSONSITLHAL", "JSONState", "HALCounters", "DEFAULT_TIMEOUT_S"]
 
-SERVO_MAGIC = 18458
-SERVO_PACKET = struct.Struct("<HHI16H")
 DEFAULT_TIMEOUT_S = 0.5          # wall seconds without a reply before the plant counts as silent
 TIMEOUT_PARAM = "SIM_JSON_TMO"   # used instead of the default if the parameter table defines it
-NEUTRAL_PWM = 1500
 _RECV_BYTES = 65536
 
 
@@ -70,49 +68,6 @@ class HALCounters:
     physics_resets: int = 0      # physics time went backwards
     send_errors: int = 0         # sendto failed (e.g. nothing listening)
     silences: int = 0            # times the plant went silent (healthy → unhealthy)
-
-
-def _vec(obj, key, n) -> np.ndarray:
-    v = np.array(obj[key], dtype=float)
-    if v.shape != (n,) or not np.all(np.isfinite(v)):
-        raise ValueError(f"{key}: expected {n} finite numbers")
-    return v
-
-
-def parse_state(line: bytes | str) -> tuple[float, np.ndarray, np.ndarray, np.ndarray | None, int | None]:
-    """(timestamp, η, ν, thrust, frame_count) from one JSON SITL reply; ValueError if it is not one.
-
-    Uses ``wavekeep.eta`` / ``wavekeep.nu`` when present (exact), else derives
-    the planar state from ArduPilot's standard fields: η = [N, D, pitch],
-    [u, w] = the NED velocity rotated into the body by the pitch, q = gyro y.
-    """
-    msg = json.loads(line)
-    if not isinstance(msg, dict):
-        raise ValueError("not a JSON object")
-    ts = float(msg["timestamp"])
-    if not math.isfinite(ts):
-        raise ValueError("timestamp is not finite")
-    wk = msg.get("wavekeep")
-    thrust = None
-    count = None
-    if isinstance(wk, dict) and "eta" in wk and "nu" in wk:
-        eta, nu = _vec(wk, "eta", 3), _vec(wk, "nu", 3)
-        if "thrust" in wk:
-            thrust = np.array(wk["thrust"], dtype=float)
-        if "frame_count" in wk:
-            count = int(wk["frame_count"])
-    else:
-        pos, vel = _vec(msg, "position", 3), _vec(msg, "velocity", 3)
-        gyro = _vec(msg["imu"], "gyro", 3)
-        if "quaternion" in msg:
-            qw, qx, qy, qz = _vec(msg, "quaternion", 4)
-            theta = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
-        else:
-            theta = float(_vec(msg, "attitude", 3)[1])
-        ct, st = math.cos(theta), math.sin(theta)
-        eta = np.array([pos[0], pos[2], theta])
-        nu = np.array([vel[0] * ct - vel[2] * st, vel[0] * st + vel[2] * ct, gyro[1]])
-    return ts, eta, nu, thrust, count
 
 
 class JSONSITLHAL(HAL):
@@ -168,7 +123,7 @@ class JSONSITLHAL(HAL):
         self.sensors = SimulatedSensors(params, sensor_seed)
         self.counters = HALCounters()
         self.frame_count = 0
-        self.last_pwm = np.full(PWM_CHANNELS, NEUTRAL_PWM, dtype=np.int64)
+        self.last_pwm = np.full(PWM_CHANNELS, NEUTRAL_PWM_US, dtype=np.int64)
         self.state: JSONState | None = None      # newest fresh state
         self.silent = True                        # no fresh state for the last packet
         self._offset = 0.0                        # vehicle time − physics time (changes on physics resets)
@@ -189,7 +144,7 @@ class JSONSITLHAL(HAL):
         deadline = time.monotonic() + total
         self.frame_count = 0
         while True:
-            self._send(np.full(PWM_CHANNELS, NEUTRAL_PWM))
+            self._send(np.full(PWM_CHANNELS, NEUTRAL_PWM_US))
             wait = min(self.timeout_s, deadline - time.monotonic())
             if wait > 0 and self._await_reply(wait):
                 return self.state
@@ -243,9 +198,7 @@ class JSONSITLHAL(HAL):
         return bool(getattr(self.clock, "simulated", False))
 
     def _send(self, pwm) -> None:
-        ch = np.zeros(16, dtype=np.int64)
-        ch[:PWM_CHANNELS] = np.clip(np.asarray(pwm, dtype=np.int64)[:PWM_CHANNELS], 0, 65535)
-        pkt = SERVO_PACKET.pack(SERVO_MAGIC, self.frame_rate, self.frame_count & 0xFFFFFFFF, *ch.tolist())
+        pkt = servo_packet(self.frame_rate, self.frame_count, np.asarray(pwm)[:PWM_CHANNELS])
         try:
             self._sock.send(pkt)
             self.counters.sent += 1
@@ -281,10 +234,11 @@ class JSONSITLHAL(HAL):
     def _accept(self, data: bytes) -> bool:
         """Decode one datagram; True if it is the fresh reply to the current frame (then it is the state)."""
         try:
-            ts, eta, nu, thrust, count = parse_state(data)
+            reply = decode_state(data)
         except (ValueError, KeyError, TypeError, IndexError):
             self.counters.malformed += 1
             return False
+        ts, count = reply.timestamp, reply.frame_count
         if count is not None and count != self.frame_count:
             self.counters.stale += 1
             return False
@@ -294,7 +248,7 @@ class JSONSITLHAL(HAL):
             self._offset = prev.t - ts
             self.counters.physics_resets += 1
         t = ts + self._offset
-        self.state = JSONState(t, ts, eta, nu, thrust, count)
+        self.state = JSONState(t, ts, reply.eta, reply.nu, reply.thrust, count)
         self.silent = False
         self.counters.replies += 1
         if self._simulated_clock():

@@ -37,11 +37,9 @@ from __future__ import annotations
 
 import argparse
 import errno
-import json
 import math
 import signal
 import socket
-import struct
 import sys
 import threading
 import time
@@ -50,28 +48,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from bridge.json_sitl import decode_servo_packet, encode_state, state_message
+
 __all__ = [
     "PhysicsServer",
     "ServerCounters",
     "PortInUseError",
-    "MAGIC_16",
-    "MAGIC_32",
-    "SERVO_16",
-    "SERVO_32",
-    "MAX_FRAME_RATE_HZ",
-    "PWM_RANGE_US",
-    "state_message",
+    "plant_state_message",
     "main",
 ]
 
-MAGIC_16 = 18458
-MAGIC_32 = 29569
-SERVO_16 = struct.Struct("<HHI16H")     # 40 bytes
-SERVO_32 = struct.Struct("<HHI32H")     # 72 bytes
-THRUSTER_CHANNELS = 8
-NEUTRAL_PWM = 1500
-MAX_FRAME_RATE_HZ = 10000               # ArduPilot's SIM_RATE_HZ is typically 400–1200 Hz
-PWM_RANGE_US = (500, 2500)              # a thruster channel must be 0 (no output) or within this
 DEFAULT_PORT = 9002
 _RECV_BYTES = 2048
 
@@ -98,74 +84,10 @@ class ServerCounters:
         return asdict(self)
 
 
-def _floats(values) -> list[float]:
-    return [float(v) for v in values]
-
-
-def state_message(plant, frame_count: int | None = None) -> dict:
-    """The JSON SITL state of a plant: ArduPilot's fields plus Wavekeep's exact planar state.
-
-    ``imu.accel_body`` is the specific force in body FRD,
-    [u̇ + q w + g sin θ, 0, ẇ − q u − g cos θ] (≈ [0, 0, −g] at rest), with ν̇
-    from ``plant.nu_dot`` (zero right after a reset). ``velocity`` is J(η)ν in
-    NED. ``wavekeep`` carries η, ν and the thrusts as exact floats, and the
-    frame_count the message answers.
-    """
+def plant_state_message(plant, frame_count: int | None = None) -> dict:
+    """The JSON SITL state of a plant (:func:`bridge.json_sitl.state_message`), ν̇ from ``plant.nu_dot``."""
     s = plant.state
-    x, z, theta = (float(v) for v in s.eta)
-    u, w, q = (float(v) for v in s.nu)
-    du, dw, _dq = (float(v) for v in plant.nu_dot)
-    g = float(plant.vehicle.g)
-    st, ct = math.sin(theta), math.cos(theta)
-    msg = {
-        "timestamp": float(s.t),
-        "imu": {
-            "gyro": [0.0, q, 0.0],
-            "accel_body": [du + q * w + g * st, 0.0, dw - q * u - g * ct],
-        },
-        "position": [x, 0.0, z],
-        "velocity": [u * ct + w * st, 0.0, -u * st + w * ct],
-        "attitude": [0.0, theta, 0.0],
-        # Last, and with no key that ArduPilot's substring parser looks for
-        # (timestamp, gyro, accel_body, position, attitude, quaternion, velocity, rng_N, ...).
-        "wavekeep": {"eta": [x, z, theta], "nu": [u, w, q], "thrust": _floats(s.thrust)},
-    }
-    if frame_count is not None:
-        msg["wavekeep"]["frame_count"] = int(frame_count)
-    return msg
-
-
-def encode_message(msg: dict) -> bytes:
-    """One JSON line, preceded and terminated by a newline as ArduPilot's reader expects.
-
-    Compact separators: older ArduPilot parsers read vectors with
-    ``sscanf("[%f, %f, %f]")`` right after ``"key":``, so there must be no space
-    before the ``[``. Python's float repr round-trips exactly.
-    """
-    return b"\n" + json.dumps(msg, separators=(",", ":"), allow_nan=False).encode("ascii") + b"\n"
-
-
-def decode_servo_packet(data: bytes) -> tuple[int, int, np.ndarray] | None:
-    """(frame_rate, frame_count, pwm[8] as float µs) of a valid servo packet, or None."""
-    if len(data) == SERVO_16.size:
-        fields = SERVO_16.unpack(data)
-        magic = MAGIC_16
-    elif len(data) == SERVO_32.size:
-        fields = SERVO_32.unpack(data)
-        magic = MAGIC_32
-    else:
-        return None
-    if fields[0] != magic:
-        return None
-    rate, count = fields[1], fields[2]
-    if not 1 <= rate <= MAX_FRAME_RATE_HZ:
-        return None
-    pwm = np.array(fields[3:3 + THRUSTER_CHANNELS], dtype=float)
-    lo, hi = PWM_RANGE_US
-    if np.any((pwm != 0) & ((pwm < lo) | (pwm > hi))):
-        return None
-    pwm[pwm == 0] = NEUTRAL_PWM
-    return rate, count, pwm
+    return state_message(s.t, s.eta, s.nu, plant.nu_dot, s.thrust, float(plant.vehicle.g), frame_count)
 
 
 MAX_CATCH_UP = 100
@@ -226,7 +148,7 @@ class PhysicsServer:
         if pkt is None:
             c.malformed += 1
             return None
-        rate, count, pwm = pkt
+        rate, count, pwm = pkt.frame_rate, pkt.frame_count, pkt.pwm
         with self._lock:
             try:
                 reply = self._advance(rate, count, pwm)
@@ -270,7 +192,7 @@ class PhysicsServer:
             for _ in range(min(gap, MAX_CATCH_UP)):
                 self.plant.step(pwm, 1.0 / rate)
                 c.steps += 1
-        reply = encode_message(state_message(self.plant, count))
+        reply = encode_state(plant_state_message(self.plant, count))
         self._last_count = count
         self._last_reply = reply
         return reply

@@ -16,6 +16,7 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.waves import elevation
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.sea import Sea
+from sitl.harness.spec import RunSpec
 
 COL = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
 
@@ -46,7 +47,7 @@ def sea_file(tmp_path, hs: float | None = None, name: str = "W1") -> str:
 def test_setpoint_step_converges_with_no_steady_state_error_in_still_water(tmp_path):
     """Start 0.5 m aft, 0.5 m shallow and 0.1 rad nose-down of the setpoint; the C-PD must settle on it."""
     still = sea_file(tmp_path, None)
-    result = run_mission(still, "cpd", duration=40.0, params=load_params(overrides=PERFECT_SENSORS),
+    result = run_mission(RunSpec(still, "cpd", duration=40.0), params=load_params(overrides=PERFECT_SENSORS),
                          initial_eta=[-0.5, 4.5, -0.1])
     L = result.timeseries
     err = L[:, 1:4] - np.array([0.0, 5.0, 0.0])
@@ -61,8 +62,8 @@ def test_feed_forward_cancels_the_wave_load_with_perfect_knowledge(tmp_path):
     the station-keeping error with FF is at least five times smaller than C-PD's."""
     calm = sea_file(tmp_path, 0.8)
     params = load_params(overrides=PERFECT_SENSORS)
-    cpd = run_mission(calm, "cpd", duration=60.0, params=params)
-    ff = run_mission(calm, "cpd_ff", duration=60.0, params=params)
+    cpd = run_mission(RunSpec(calm, "cpd", duration=60.0), params=params)
+    ff = run_mission(RunSpec(calm, "cpd_ff", duration=60.0), params=params)
     tau_max = np.array([params[f"WK_TAU_MAX_{a}"] for a in "XZP"])
     assert np.all(np.abs(cpd.timeseries[:, COL["tau_X"]:COL["tau_M"] + 1]) < tau_max)   # no saturation
     for dof in ("surge", "heave", "pitch"):
@@ -76,10 +77,10 @@ def test_feed_forward_cancels_the_wave_load_with_perfect_knowledge(tmp_path):
 
 def test_feed_forward_is_off_without_a_forecast_and_when_disabled():
     params = load_params()
-    r = run_mission("W1", "cpd", duration=2.0, params=params)
+    r = run_mission(RunSpec("W1", "cpd", duration=2.0), params=params)
     assert r.results["ff_active_fraction"] == 0.0
     assert np.all(r.timeseries[:, COL["tau_ff_X"]:COL["tau_ff_M"] + 1] == 0.0)
-    r = run_mission("W1", "cpd_ff", duration=2.0)
+    r = run_mission(RunSpec("W1", "cpd_ff", duration=2.0))
     assert r.results["ff_active_fraction"] > 0.95
 
 
@@ -108,7 +109,7 @@ def test_spectral_noise_has_the_requested_snr():
 
 def test_ekf_error_is_consistent_with_its_covariance():
     """Normalised estimation error squared on the measured-and-modelled states stays near its dimension."""
-    r = run_mission("W3", "cpd_ff", duration=120.0)
+    r = run_mission(RunSpec("W3", "cpd_ff", duration=120.0))
     L = r.timeseries[100:]
     err = L[:, [COL["x_hat"], COL["z_hat"], COL["theta_hat"]]] - L[:, [1, 2, 3]]
     sig = L[:, [COL["sigma_x"], COL["sigma_z"], COL["sigma_theta"]]]
@@ -227,8 +228,8 @@ def test_forecast_reference_position_and_time_base_are_honoured():
 
 
 def test_same_seed_same_run():
-    a = run_mission("W2", "cpd_ff", 15.0, duration=5.0).timeseries
-    b = run_mission("W2", "cpd_ff", 15.0, duration=5.0).timeseries
+    a = run_mission(RunSpec("W2", "cpd_ff", 15.0, duration=5.0)).timeseries
+    b = run_mission(RunSpec("W2", "cpd_ff", 15.0, duration=5.0)).timeseries
     np.testing.assert_array_equal(a, b)
 
 

@@ -29,6 +29,7 @@ from firmware_py.modes import MAV_RESULT, Mode  # noqa: E402
 from firmware_py.params import load_params  # noqa: E402
 from firmware_py.sensors import depth_to_pressure  # noqa: E402
 from sitl.harness.live import LiveSim  # noqa: E402
+from sitl.harness.spec import RunSpec
 
 SUB_MODES = {0: "STABILIZE", 2: "ALT_HOLD", 4: "GUIDED", 9: "SURFACE", 16: "POSHOLD", 19: "MANUAL"}
 SERVO = mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW
@@ -156,7 +157,7 @@ class Vehicle:
     def __init__(self, **kw):
         self.gcs_port, self.in_port = free_port(), free_port()
         self.gs = GroundStation(f"udpin:127.0.0.1:{self.gcs_port}")
-        self.sim = LiveSim("W1", "cpd_ff", seed=7, mavlink=[f"udpout:127.0.0.1:{self.gcs_port}",
+        self.sim = LiveSim(RunSpec("W1", "cpd_ff", seed=7), mavlink=[f"udpout:127.0.0.1:{self.gcs_port}",
                                                             f"udpin:127.0.0.1:{self.in_port}"], **kw)
         self.fw, self.link = self.sim.firmware, self.sim.link
         self.defaults = self.fw.params.as_dict()
@@ -687,7 +688,7 @@ def test_a_second_endpoint_gets_its_own_replies(v):
 def test_tcp_server_endpoint_with_the_loop_driven_by_hand():
     """``tcpin:`` with a pymavlink ``tcp:`` client; the link's task is called as a scheduler would."""
     from sitl.harness.run import build_mission
-    m = build_mission("W1", "cpd", params=load_params())
+    m = build_mission(RunSpec("W1", "cpd"), params=load_params())
     port = free_port(socket.SOCK_STREAM)
     link = MavlinkLink(m.firmware, [f"tcpin:127.0.0.1:{port}"]).start()
     client = None
@@ -726,7 +727,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
 
     import numpy as np
     from sitl.harness.run import build_mission
-    m = build_mission("W1", "cpd", params=load_params())
+    m = build_mission(RunSpec("W1", "cpd"), params=load_params())
     fw = m.firmware
     link = MavlinkLink(fw, [f"udpout:127.0.0.1:{free_port()}"])
     try:
@@ -753,7 +754,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
 
 def test_bad_construction_is_refused():
     from sitl.harness.run import build_mission
-    fw = build_mission("W1", "cpd", params=load_params()).firmware
+    fw = build_mission(RunSpec("W1", "cpd"), params=load_params()).firmware
     for bad in ("serial:/dev/ttyS0", "udpout:127.0.0.1", "udpin:host:port", "tcp::5760", "udpout:127.0.0.1:0"):
         with pytest.raises(ValueError):
             MavlinkLink(fw, [bad])
@@ -785,7 +786,7 @@ def test_signing_rejects_unsigned_and_wrongly_signed_commands():
     key = bytes(range(1, 33))
     gcs_port = free_port()
     gs = GroundStation(f"udpin:127.0.0.1:{gcs_port}")
-    sim = LiveSim("W1", "cpd", mavlink=[f"udpout:127.0.0.1:{gcs_port}"], signing_key=key).start()
+    sim = LiveSim(RunSpec("W1", "cpd"), mavlink=[f"udpout:127.0.0.1:{gcs_port}"], signing_key=key).start()
     try:
         assert gs.heartbeat(timeout=10.0) is not None          # signed, but readable without the key
         request = (mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
@@ -822,7 +823,7 @@ def test_unmodified_mavproxy_flies_the_sub(tmp_path):
     """Headless MAVProxy: sees a Sub with ArduSub's mode names, switches to POSHOLD, arms, lists and sets
     parameters, and sees SERVO_OUTPUT_RAW move."""
     port = free_port()
-    sim = LiveSim("W1", "cpd_ff", mavlink=[f"udpout:127.0.0.1:{port}"]).start()
+    sim = LiveSim(RunSpec("W1", "cpd_ff"), mavlink=[f"udpout:127.0.0.1:{port}"]).start()
     proc = subprocess.Popen([sys.executable, "-m", "MAVProxy.mavproxy", f"--master=udpin:127.0.0.1:{port}",
                              "--no-state", "--default-modules=param,mode,arm,cmdlong,misc"],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,

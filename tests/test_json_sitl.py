@@ -17,16 +17,18 @@ import pytest
 from bridge.forecast import derive_seeds, oracle_forecast
 from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.firmware import Firmware
-from firmware_py.hal_json import JSONSITLHAL, parse_state
+from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
+from firmware_py.hal_json import JSONSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import load_params
 from firmware_py.scheduler import WallClock
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import VehicleParams
-from sitl.physics_server import MAGIC_16, MAGIC_32, PhysicsServer, PortInUseError
+from sitl.physics_server import PhysicsServer, PortInUseError
 from sitl.plant import Plant
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.sea import Sea
+from sitl.harness.spec import RunSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE = 20
@@ -223,12 +225,12 @@ def test_parse_state_without_wavekeep_fields(client):
         client.send(servo(k, [1700, 1300, 1500, 1500, 1650, 1350, 1500, 1500]))
         raw = client.recv(65536)
     msg = json.loads(raw)
-    exact = parse_state(raw)
+    exact = decode_state(raw)
     del msg["wavekeep"]
-    ts, eta, nu, thrust, count = parse_state(json.dumps(msg))
-    assert ts == exact[0] and thrust is None and count is None
-    np.testing.assert_allclose(eta, exact[1], atol=1e-12)
-    np.testing.assert_allclose(nu, exact[2], atol=1e-12)
+    derived = decode_state(json.dumps(msg))
+    assert derived.timestamp == exact.timestamp and derived.thrust is None and derived.frame_count is None
+    np.testing.assert_allclose(derived.eta, exact.eta, atol=1e-12)
+    np.testing.assert_allclose(derived.nu, exact.nu, atol=1e-12)
 
 
 # ---------------------------------------------------------------------------- firmware over UDP
@@ -262,7 +264,7 @@ def take_off(hal, fw, setpoint):
 
 def test_mission_over_json_sitl_is_identical_to_in_process(server):
     duration = 10.0
-    ref = run_mission("W1", "cpd_ff", duration=duration).timeseries
+    ref = run_mission(RunSpec("W1", "cpd_ff", duration=duration)).timeseries
     hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port))
     try:
         take_off(hal, fw, setpoint)
@@ -293,7 +295,7 @@ def test_mission_over_json_sitl_is_identical_to_in_process(server):
 def test_paced_run_on_a_lockstep_paced_clock(server):
     """--speedup: the firmware paces on the wall clock; the grid starts at the hello's time (0)."""
     ticks = 20
-    ref = run_mission("W1", "cpd_ff", duration=ticks * H).timeseries
+    ref = run_mission(RunSpec("W1", "cpd_ff", duration=ticks * H)).timeseries
     hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port), speedup=5.0)
     try:
         hal.start()

@@ -15,6 +15,7 @@ import pytest
 
 from sitl.harness.launcher import LaunchError, SimOptions, launch
 from sitl.harness.run import run_mission, write_run
+from sitl.harness.spec import RunSpec
 
 
 def free_port(kind=socket.SOCK_DGRAM) -> int:
@@ -23,16 +24,16 @@ def free_port(kind=socket.SOCK_DGRAM) -> int:
         return s.getsockname()[1]
 
 
-def options(tmp_path, **kw) -> SimOptions:
-    return SimOptions(out=str(tmp_path / "sim"), plant_port=free_port(), gcs_port=free_port(),
-                      zenoh_port=free_port(socket.SOCK_STREAM), **kw)
+def options(tmp_path, speedup=None, **spec) -> SimOptions:
+    return SimOptions(RunSpec(**spec), speedup=speedup, out=str(tmp_path / "sim"), plant_port=free_port(),
+                      gcs_port=free_port(), zenoh_port=free_port(socket.SOCK_STREAM))
 
 
 def test_multi_process_run_equals_the_in_process_run(tmp_path):
     """Same seed → the same time series and results, through JSON SITL, MAVLink and zenoh."""
     opt = options(tmp_path, case="W1", controller="cpd_ff", snr_db=15.0, duration=8.0)
     sim = launch(opt)
-    ref = run_mission("W1", "cpd_ff", 15.0, duration=8.0)
+    ref = run_mission(RunSpec("W1", "cpd_ff", 15.0, duration=8.0))
     for key in ("rmse", "max_abs_error", "mean_power_w", "energy_j"):
         for dof, v in ref.results[key].items():
             assert sim[key][dof] == pytest.approx(v, abs=1e-9), (key, dof)
@@ -124,7 +125,7 @@ def test_real_time_mission_keeps_20_hz_on_the_wall_clock_and_the_same_result(tmp
     assert stats["paced"]["late_slots"] <= 0.1 * stats["ticks"]
     ticks = np.loadtxt(Path(opt.out) / "firmware_ticks.csv", delimiter=",", skiprows=1)
     assert np.allclose(np.diff(ticks[:, 0]), 0.05)  # every slot ran, on the grid
-    write_run(run_mission("W3", "cpd", duration=4.0), tmp_path / "ref", plots=False)
+    write_run(run_mission(RunSpec("W3", "cpd", duration=4.0)), tmp_path / "ref", plots=False)
     assert (Path(opt.out) / "timeseries.csv").read_text() == (tmp_path / "ref" / "timeseries.csv").read_text()
     # An outside observer: the plant's wall-clock time of each servo packet (a step), from the
     # first step after the start hold. Mean period 50 ms within 1 %, no cumulative drift, and

@@ -8,6 +8,7 @@ from firmware_py.modes import MAV_RESULT, MAV_STATE, Mode
 from firmware_py.params import load_params
 from sitl.harness.run import build_mission
 from sitl.harness.thrust import csv_profile, pattern_profile
+from sitl.harness.spec import RunSpec
 
 
 def tick(m, n: int = 1):
@@ -18,7 +19,7 @@ def tick(m, n: int = 1):
 
 @pytest.fixture
 def mission():
-    return build_mission("W1", "cpd_ff", duration=10.0, params=load_params())
+    return build_mission(RunSpec("W1", "cpd_ff", duration=10.0), params=load_params())
 
 
 def test_boots_disarmed_in_manual_with_neutral_thrusters(mission):

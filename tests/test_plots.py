@@ -10,6 +10,7 @@ import pytest
 
 from sitl.harness.plots import LABELS, REPRODUCE_FIGURES, plot_reproduce, plot_run
 from sitl.harness.run import TIMESERIES_COLUMNS, RunResult, run_mission, write_run
+from sitl.harness.spec import RunSpec
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 CASES = ("W1", "W2", "W3")
@@ -103,6 +104,6 @@ def test_plot_reproduce_duplicate_run_raises(tmp_path, nine_runs):
 
 
 def test_write_run_plots_a_real_short_mission(tmp_path):
-    result = run_mission("W1", "cpd_ff", 15.0, duration=2.0)
+    result = run_mission(RunSpec("W1", "cpd_ff", 15.0, duration=2.0))
     out = write_run(result, tmp_path / "run")
     assert_png(out / "time_history.png")

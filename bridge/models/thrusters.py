@@ -15,10 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-__all__ = ["KGF", "T200Curve", "ThrusterLayout", "power_per_dof", "WRENCH_AXES"]
+__all__ = ["KGF", "NEUTRAL_PWM_US", "T200Curve", "ThrusterLayout", "power_per_dof", "WRENCH_AXES"]
 
 KGF = 9.80665
 """Newtons per kilogram-force."""
+
+NEUTRAL_PWM_US = 1500
+"""The ESC's stop pulse (µs): ArduSub's neutral output and an RC stick at centre."""
 
 WRENCH_AXES = ("X", "Y", "Z", "K", "M", "N")
 """Rows of the 6-DoF wrench matrix: forces along body x, y, z; moments about x, y, z."""
@@ -32,7 +35,7 @@ class T200Curve:
     """
 
     def __init__(self, pwm_us, thrust_n, pwm_min: float = 1100.0, pwm_max: float = 1900.0,
-                 pwm_neutral: float = 1500.0):
+                 pwm_neutral: float = NEUTRAL_PWM_US):
         pwm = np.asarray(pwm_us, dtype=float)
         f = np.asarray(thrust_n, dtype=float)
         if pwm.shape != f.shape or pwm.size < 4:

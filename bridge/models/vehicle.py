@@ -26,6 +26,8 @@ from .waves import G, WaveComponents, particle_kinematics_grid
 __all__ = [
     "VehicleParams",
     "J",
+    "body_to_ned",
+    "ned_to_body",
     "coriolis_matrix",
     "damping_matrix",
     "restoring_forces",
@@ -111,6 +113,18 @@ class VehicleParams:
     def load(cls, path: str | Path) -> "VehicleParams":
         from bridge.schemas import load_vehicle_config
         return cls.from_config(load_vehicle_config(path))
+
+
+def body_to_ned(theta: float, u, w):
+    """NED rates (ẋ, ż) of body velocities (u, w) at pitch θ: the translational rows of J(η) (Fossen Eq. 2.40)."""
+    c, s = math.cos(theta), math.sin(theta)
+    return c * u + s * w, -s * u + c * w
+
+
+def ned_to_body(theta: float, vn, vd):
+    """Body components (u, w) of an NED vector (north, down) at pitch θ: J(η)ᵀ, the inverse of :func:`body_to_ned`."""
+    c, s = math.cos(theta), math.sin(theta)
+    return c * vn - s * vd, s * vn + c * vd
 
 
 def J(eta: np.ndarray) -> np.ndarray:
@@ -199,7 +213,7 @@ def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarra
     # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
     depth = np.clip(eta[1] - xs * s, 0.0, waves.water_depth)   # and nothing below the seabed
     u, w, ud, wd = particle_kinematics_grid(waves, eta[0] + xs * c, depth, tt)   # (T, S)
-    return BodyFlow(xs, wts, c * u - s * w, s * u + c * w, c * ud - s * wd, s * ud + c * wd)
+    return BodyFlow(xs, wts, *ned_to_body(th, u, w), *ned_to_body(th, ud, wd))
 
 
 def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tuple | None = None):

@@ -23,6 +23,8 @@ import numpy as np
 
 from bridge.configfile import ConfigError
 
+from .spec import RunSpec
+
 __all__ = ["main"]
 
 
@@ -122,13 +124,26 @@ def cmd_openloop(args) -> int:
     return 0
 
 
+class UsageError(Exception):
+    """A bad combination of command-line options: reported in one line, exit status 2."""
+
+
+def run_spec(args) -> RunSpec:
+    """The :class:`RunSpec` that a run command's options describe."""
+    try:
+        return RunSpec(case=args.case, controller=args.controller, snr_db=args.forecast_snr_db, seed=args.seed,
+                       duration=getattr(args, "duration", None), mission=args.mission, vehicle=args.vehicle,
+                       forecast=getattr(args, "forecast", "oracle"))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def cmd_run(args) -> int:
     """One station-keeping mission in-process: prints the results, writes the run folder."""
     from .metrics import format_table
     from .run import run_mission, write_run
 
-    result = run_mission(args.case, args.controller, args.forecast_snr_db, seed=args.seed, duration=args.duration,
-                         mission=args.mission, vehicle=args.vehicle, progress=True, forecast_mode=args.forecast)
+    result = run_mission(run_spec(args), progress=True)
     r = result.results
     out = write_run(result, args.out, plots=not args.no_plots)
     print(f"{r['case']} {r['label']}, seed {r['seed']}, {r['duration_s']:g} s at {r['rate_hz']:g} Hz: "
@@ -158,7 +173,7 @@ def cmd_live(args) -> int:
     if args.signing_key:
         from firmware_py.gcs import load_signing_key
         key = load_signing_key(args.signing_key)
-    sim = LiveSim(args.case, args.controller, args.forecast_snr_db, seed=args.seed,
+    sim = LiveSim(run_spec(args),
                   mavlink=args.mavlink or ["udpout:127.0.0.1:14550"], speedup=args.speedup, signing_key=key)
     print(f"Wavekeep live: {args.case}, {args.controller}, MAVLink on {', '.join(args.mavlink or ['udpout:127.0.0.1:14550'])}"
           f", speed-up {args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops.")
@@ -318,9 +333,8 @@ def cmd_sim(args) -> int:
     from .launcher import LaunchError, SimOptions, launch
     from .metrics import format_table
 
-    opt = SimOptions(case=args.case, controller=args.controller, snr_db=args.forecast_snr_db,
-                     forecast_mode=args.forecast, speedup=args.speedup, duration=args.duration, seed=args.seed,
-                     out=args.out, plant_port=args.plant_port, gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
+    opt = SimOptions(run_spec(args), speedup=args.speedup, out=args.out, plant_port=args.plant_port,
+                     gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
     try:
         r = launch(opt, progress=None)
     except LaunchError as exc:
@@ -347,6 +361,9 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except ConfigError as exc:
         print(f"wavekeep: config error: {exc}", file=sys.stderr)
+        return 2
+    except UsageError as exc:
+        print(f"wavekeep {args.command}: {exc}", file=sys.stderr)
         return 2
     except (TimeoutError, ValueError, RuntimeError) as exc:
         print(f"wavekeep {args.command}: {exc}", file=sys.stderr)

@@ -36,6 +36,16 @@ from pathlib import Path
 
 import numpy as np
 
+from bridge.forecast import derive_seeds, oracle_forecast
+from bridge.schemas import load_mission_config, load_vehicle_config
+from firmware_py.modes import Mode
+from sitl.sea import Sea
+
+from .progress import ProgressBar
+from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
+from .run import write_run
+from .spec import RunSpec
+
 __all__ = ["SimOptions", "LaunchError", "launch"]
 
 
@@ -47,13 +57,10 @@ class LaunchError(RuntimeError):
 
 @dataclass
 class SimOptions:
-    case: str = "W3"
-    controller: str = "cpd_ff"
-    snr_db: float | None = None
-    forecast_mode: str = "oracle"
+    """How to launch a run: the mission (a :class:`RunSpec`), pacing, the run folder and the loopback ports."""
+
+    spec: RunSpec = field(default_factory=RunSpec)
     speedup: float | None = None
-    duration: float | None = None
-    seed: int | None = None
     out: str = "runs/sim"
     plant_port: int = 9002
     gcs_port: int = 14550
@@ -132,26 +139,19 @@ def launch(opt: SimOptions, progress=None) -> dict:
     os.environ["MAVLINK20"] = "1"
     from pymavlink import mavutil
 
-    from bridge.forecast import derive_seeds, oracle_forecast
-    from bridge.schemas import load_mission_config
-    from firmware_py.modes import Mode
-    from .progress import ProgressBar
-    from .run import CONTROLLERS, RunResult, mission_results, run_label, write_run
-    from sitl.sea import Sea
-
-    if opt.controller not in CONTROLLERS:
-        raise LaunchError(f"controller must be one of {CONTROLLERS}", 2)
-    sea = Sea.load(opt.case, seed=opt.seed)     # validates the case before anything starts
+    spec = opt.spec
+    sea = Sea.load(spec.case, seed=spec.seed)     # validates the case before anything starts
     seed = sea.seed
-    mcfg = load_mission_config("station_keeping")
-    duration = mcfg["duration"] if opt.duration is None else float(opt.duration)
+    mcfg = load_mission_config(spec.mission)
+    load_vehicle_config(spec.vehicle)
+    duration = mcfg["duration"] if spec.duration is None else float(spec.duration)
     rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]
     out = Path(opt.out)
     out.mkdir(parents=True, exist_ok=True)
     _check_port(opt.plant_port, "plant")
     _check_port(opt.gcs_port, "GCS")
-    ff = opt.controller == "cpd_ff"
+    ff = spec.ff
     if ff:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
 
@@ -168,21 +168,22 @@ def launch(opt: SimOptions, progress=None) -> dict:
     tlog = None
     try:
         if ff:
-            fc = cli + ["forecast", "--case", opt.case, "--seed", str(seed), "--mode", opt.forecast_mode,
+            fc = cli + ["forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
                         "--network", str(netcfg), "--horizon", str(duration + 60.0)]
-            if opt.snr_db is not None:
-                fc += ["--snr-db", str(opt.snr_db)]
+            if spec.snr_db is not None:
+                fc += ["--snr-db", str(spec.snr_db)]
             children.append(_Child("forecast", fc, out / "forecast.log", env))
             _wait_ready(children, opt.ready_timeout_s)
-        plant = cli + ["plant", "--case", opt.case, "--seed", str(seed), "--port", str(opt.plant_port),
-                       "--log", str(out / "plant_truth.csv")]
+        plant = cli + ["plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port),
+                       "--mission", spec.mission, "--vehicle", spec.vehicle, "--log", str(out / "plant_truth.csv")]
         if ff:
             plant += ["--buoy-network", str(netcfg)]
         children.append(_Child("plant", plant, out / "plant.log", env))
         _wait_ready(children, opt.ready_timeout_s)
         firmware = cli + ["firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
                           "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed),
-                          "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
+                          "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg),
+                          "--mission", spec.mission, "--vehicle", spec.vehicle]
         if opt.speedup:
             firmware += ["--speedup", str(opt.speedup)]
         firmware += ["--set", f"WK_FF_ENABLE={1 if ff else 0}"]
@@ -192,6 +193,8 @@ def launch(opt: SimOptions, progress=None) -> dict:
         firmware += ["--set", "FS_GCS_ENABLE=0"]
         if not ff:
             firmware += ["--no-forecast"]
+        for name, value in spec.overrides.items():
+            firmware += ["--set", f"{name}={value!r}"]
         for s in opt.extra_params:
             firmware += ["--set", s]
         children.append(_Child("firmware", firmware, out / "firmware.log", env))
@@ -245,7 +248,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
         command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         t_wall0 = time.monotonic()
         end_ms = int(round(duration * 1000))
-        with ProgressBar(duration, f"sim {sea.name} {run_label(opt.controller, opt.snr_db)}",
+        with ProgressBar(duration, f"sim {sea.name} {spec.label}",
                          enabled=progress) as bar:
             def mission_over(m) -> bool:
                 if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
@@ -268,9 +271,9 @@ def launch(opt: SimOptions, progress=None) -> dict:
     ticks = np.loadtxt(out / "firmware_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
     n = int(round(duration * rate)) - 1
     forecast = None
-    if ff:
+    if spec.forecast_source == "oracle":   # (DSWP forecasts live in the forecast service; not logged here)
         _, forecast_seed = derive_seeds(seed)
-        forecast = oracle_forecast(sea.components, opt.snr_db, np.random.default_rng(forecast_seed))
+        forecast = oracle_forecast(sea.components, spec.snr_db, np.random.default_rng(forecast_seed))
     log = _merge_logs(truth, ticks, n, sea, forecast)
     setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
     fw_stats = {}
@@ -279,8 +282,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
     except OSError:
         pass
     results = {
-        **mission_results(sea, opt.controller, opt.snr_db, duration, rate, setpoint, log,
-                          fw_stats.get("overruns", 0)),
+        **mission_results(sea, spec, duration, rate, setpoint, log, fw_stats),
         "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
         "speedup": opt.speedup, "wall_time_s": wall,
         "speed_x_realtime": duration / wall if wall > 0 else None,
@@ -297,9 +299,7 @@ def _merge_logs(truth: np.ndarray, ticks: np.ndarray, n: int, sea, forecast) -> 
     (:data:`~firmware_py.firmware.TICK_COLUMNS`), and the wave load at the end of that
     tick's period — as :func:`sitl.harness.run.run_mission` logs it.
     """
-    from .run import TIMESERIES_COLUMNS, elevation_along
-
-    col = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
+    col = COLUMN
     h = truth[1, 0] - truth[0, 0]
     by_tick = {int(k): i for i, k in enumerate(np.rint(ticks[:, 0] / h))}
     rows = [k for k in range(1, n + 1) if k in by_tick and k + 1 < truth.shape[0]]

@@ -15,6 +15,7 @@ from firmware_py.params import ParameterTable
 from firmware_py.scheduler import LockstepPacedClock, Task
 
 from .run import MissionSetup, build_mission
+from .spec import RunSpec
 
 __all__ = ["LiveSim"]
 
@@ -26,14 +27,12 @@ class LiveSim:
     station arms it and picks a mode. ``speedup`` > 1 runs faster than real time.
     """
 
-    def __init__(self, case: str = "W3", controller: str = "cpd_ff", snr_db: float | None = None,
-                 seed: int | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
+    def __init__(self, spec: RunSpec | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
                  speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None,
                  realtime: bool = False):
         from firmware_py.gcs import MavlinkLink
 
-        self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
-                                                 clock=LockstepPacedClock(speedup))
+        self.setup: MissionSetup = build_mission(spec or RunSpec(), params=params, clock=LockstepPacedClock(speedup))
         # (the paced clock anchors the wall clock at the loop's first slot, so the grid starts at 0 then)
         self.firmware = self.setup.firmware
         self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)

@@ -20,13 +20,14 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from .metrics import DOF
-from .reproduce import CASES, VARIANTS
-from .run import TIMESERIES_COLUMNS, RunResult, run_label
+from .results import TIMESERIES_COLUMNS, RunResult
+from .spec import PAPER_CASES as CASES
+from .spec import PAPER_VARIANTS
 
 __all__ = ["plot_run", "plot_reproduce", "REPRODUCE_FIGURES", "LABELS"]
 
 DPI = 120
-LABELS: tuple[str, ...] = tuple(run_label(ctrl, snr) for ctrl, snr in VARIANTS)   # C-PD, exact, 15 dB
+LABELS: tuple[str, ...] = tuple(v.label for v in PAPER_VARIANTS)   # C-PD, exact, 15 dB
 CPD, FF_EXACT, FF_SNR = LABELS
 REPRODUCE_FIGURES = ("fig4_time_history_W3.png", "fig5_forecast_W3.png", "fig6_errors.png", "fig7_power.png")
 

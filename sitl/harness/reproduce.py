@@ -11,17 +11,20 @@ import json
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from .metrics import DOF
-from .run import RunResult, run_mission
+from .plots import plot_reproduce
+from .results import RunResult
+from .run import run_mission
+from .spec import PAPER_CASES as CASES
+from .spec import PAPER_VARIANTS, RunSpec
 
-__all__ = ["VARIANTS", "PAPER", "reproduce", "summarise", "format_reproduce_table"]
+__all__ = ["PAPER", "reproduce", "summarise", "format_reproduce_table"]
 
-CASES = ("W1", "W2", "W3")
-VARIANTS = (("cpd", None), ("cpd_ff", None), ("cpd_ff", 15.0))
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
 PAPER = {
@@ -33,9 +36,8 @@ PAPER = {
 }
 
 
-def _one(args) -> RunResult:
-    case, controller, snr, seed, duration = args
-    return run_mission(case, controller, snr, seed=seed, duration=duration)
+def _one(spec: RunSpec) -> RunResult:
+    return run_mission(spec)
 
 
 def reduction_pct(base: float, new: float) -> float:
@@ -101,7 +103,7 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     """Run the nine missions, write DIR/reproduce.json (+ figures), return the document."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(c, ctrl, snr, seed, duration) for c in CASES for ctrl, snr in VARIANTS]
+    jobs = [replace(v, case=c, seed=seed, duration=duration) for c in CASES for v in PAPER_VARIANTS]
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()
     runs: list[RunResult] = []
@@ -117,13 +119,12 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     else:
         for i, job in enumerate(jobs):
             runs.append(_one(job))
-            progress(f"[{i + 1}/{len(jobs)}] {job[0]} {runs[-1].results['label']}: done")
+            progress(f"[{i + 1}/{len(jobs)}] {job.case} {runs[-1].results['label']}: done")
     wall = time.perf_counter() - t0
     results = [r.results for r in runs]
     summary = summarise(results)
     doc = {"runs": results, "summary": summary, "paper": PAPER, "wall_time_s": wall}
     (out / "reproduce.json").write_text(json.dumps(doc, indent=2))
     if plots:
-        from .plots import plot_reproduce
         plot_reproduce(runs, out)
     return doc

@@ -1,0 +1,193 @@
+"""ArduPilot's JSON SITL wire format: one codec for both ends.
+
+The autopilot (the firmware's :class:`firmware_py.hal_json.JSONSITLHAL`, or real
+ArduSub SITL with ``--model JSON``) sends binary servo packets; the physics
+side (:class:`sitl.physics_server.PhysicsServer`) answers each with one line of
+JSON holding the vehicle's state. ``docs/json_sitl.md`` describes the protocol.
+
+Servo packet, little endian::
+
+    <HHI16H   magic 18458, frame_rate (Hz), frame_count, pwm[16] (µs)   40 bytes
+    <HHI32H   magic 29569, frame_rate (Hz), frame_count, pwm[32] (µs)   72 bytes
+
+State reply: ``timestamp`` (s), ``imu.gyro`` (rad/s, body), ``imu.accel_body``
+(m/s², specific force, body FRD), ``position`` (NED m), ``velocity`` (NED m/s),
+``attitude`` [roll, pitch, yaw] (rad), plus a ``wavekeep`` object with the
+exact planar state η = [x, z, θ], ν = [u, w, q], the thrusts (N) and the
+frame_count the reply answers.
+"""
+from __future__ import annotations
+
+import json
+import math
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bridge.models.thrusters import NEUTRAL_PWM_US
+from bridge.models.vehicle import body_to_ned, ned_to_body
+
+__all__ = [
+    "MAGIC_16",
+    "MAGIC_32",
+    "SERVO_16",
+    "SERVO_32",
+    "MAX_FRAME_RATE_HZ",
+    "PWM_RANGE_US",
+    "THRUSTER_CHANNELS",
+    "ServoPacket",
+    "StateReply",
+    "servo_packet",
+    "decode_servo_packet",
+    "state_message",
+    "encode_state",
+    "decode_state",
+]
+
+MAGIC_16 = 18458
+MAGIC_32 = 29569
+SERVO_16 = struct.Struct("<HHI16H")     # 40 bytes
+SERVO_32 = struct.Struct("<HHI32H")     # 72 bytes
+THRUSTER_CHANNELS = 8
+MAX_FRAME_RATE_HZ = 10000               # ArduPilot's SIM_RATE_HZ is typically 400–1200 Hz
+PWM_RANGE_US = (500, 2500)              # a thruster channel must be 0 (no output) or within this
+
+
+@dataclass(frozen=True)
+class ServoPacket:
+    """A decoded servo packet: the autopilot's frame and its thruster PWM (µs, 0 read as neutral)."""
+
+    frame_rate: int
+    frame_count: int
+    pwm: np.ndarray
+
+
+@dataclass(frozen=True)
+class StateReply:
+    """A decoded state reply, in the planar frame (η NED/pitch, ν body FRD)."""
+
+    timestamp: float             # physics time (s)
+    eta: np.ndarray              # [x, z, θ] (m, m, rad)
+    nu: np.ndarray               # [u, w, q] (m/s, m/s, rad/s)
+    thrust: np.ndarray | None    # per-thruster thrust (N), when the server sends it
+    frame_count: int | None      # the servo frame it answers, when the server says
+
+
+def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
+    """The 16-channel servo packet for ``pwm`` (µs; missing channels are 0, values clipped to uint16)."""
+    ch = np.zeros(16, dtype=np.int64)
+    p = np.asarray(pwm, dtype=np.int64)[:16]
+    ch[: p.size] = np.clip(p, 0, 65535)
+    return SERVO_16.pack(MAGIC_16, int(frame_rate), int(frame_count) & 0xFFFFFFFF, *ch.tolist())
+
+
+def decode_servo_packet(data: bytes) -> ServoPacket | None:
+    """A valid servo packet's frame and thruster PWM (float µs), or None for anything malformed.
+
+    Malformed: wrong size or magic, a frame rate outside 1…``MAX_FRAME_RATE_HZ``,
+    or a thruster channel that is neither 0 ("no output", taken as neutral) nor
+    within ``PWM_RANGE_US``.
+    """
+    if len(data) == SERVO_16.size:
+        fields, magic = SERVO_16.unpack(data), MAGIC_16
+    elif len(data) == SERVO_32.size:
+        fields, magic = SERVO_32.unpack(data), MAGIC_32
+    else:
+        return None
+    if fields[0] != magic:
+        return None
+    rate, count = fields[1], fields[2]
+    if not 1 <= rate <= MAX_FRAME_RATE_HZ:
+        return None
+    pwm = np.array(fields[3:3 + THRUSTER_CHANNELS], dtype=float)
+    lo, hi = PWM_RANGE_US
+    if np.any((pwm != 0) & ((pwm < lo) | (pwm > hi))):
+        return None
+    pwm[pwm == 0] = NEUTRAL_PWM_US
+    return ServoPacket(rate, count, pwm)
+
+
+def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
+                  g: float, frame_count: int | None = None) -> dict[str, Any]:
+    """The JSON SITL state of a planar vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
+
+    ``imu.accel_body`` is the specific force in body FRD,
+    [u̇ + q w + g sin θ, 0, ẇ − q u − g cos θ] (≈ [0, 0, −g] at rest).
+    ``velocity`` is J(η)ν in NED.
+    """
+    x, z, theta = (float(v) for v in eta)
+    u, w, q = (float(v) for v in nu)
+    du, dw = float(nu_dot[0]), float(nu_dot[1])
+    st, ct = math.sin(theta), math.cos(theta)
+    vn, vd = body_to_ned(theta, u, w)
+    msg: dict[str, Any] = {
+        "timestamp": float(t),
+        "imu": {
+            "gyro": [0.0, q, 0.0],
+            "accel_body": [du + q * w + g * st, 0.0, dw - q * u - g * ct],
+        },
+        "position": [x, 0.0, z],
+        "velocity": [vn, 0.0, vd],
+        "attitude": [0.0, theta, 0.0],
+        # Last, and with no key that ArduPilot's substring parser looks for
+        # (timestamp, gyro, accel_body, position, attitude, quaternion, velocity, rng_N, ...).
+        "wavekeep": {"eta": [x, z, theta], "nu": [u, w, q], "thrust": [float(f) for f in thrust]},
+    }
+    if frame_count is not None:
+        msg["wavekeep"]["frame_count"] = int(frame_count)
+    return msg
+
+
+def encode_state(msg: dict[str, Any]) -> bytes:
+    """One JSON line, preceded and terminated by a newline as ArduPilot's reader expects.
+
+    Compact separators: older ArduPilot parsers read vectors with
+    ``sscanf("[%f, %f, %f]")`` right after ``"key":``, so there must be no space
+    before the ``[``. Python's float repr round-trips exactly; NaN is refused.
+    """
+    return b"\n" + json.dumps(msg, separators=(",", ":"), allow_nan=False).encode("ascii") + b"\n"
+
+
+def _vec(obj: dict[str, Any], key: str, n: int) -> np.ndarray:
+    v = np.array(obj[key], dtype=float)
+    if v.shape != (n,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{key}: expected {n} finite numbers")
+    return v
+
+
+def decode_state(line: bytes | str) -> StateReply:
+    """The planar state in one JSON SITL reply; ValueError (or KeyError/TypeError) if it is not one.
+
+    Uses ``wavekeep.eta`` / ``wavekeep.nu`` when present (exact), else derives
+    the planar state from ArduPilot's standard fields: η = [N, D, pitch],
+    [u, w] = the NED velocity rotated into the body by the pitch, q = gyro y.
+    """
+    msg = json.loads(line)
+    if not isinstance(msg, dict):
+        raise ValueError("not a JSON object")
+    ts = float(msg["timestamp"])
+    if not math.isfinite(ts):
+        raise ValueError("timestamp is not finite")
+    wk = msg.get("wavekeep")
+    thrust = None
+    count = None
+    if isinstance(wk, dict) and "eta" in wk and "nu" in wk:
+        eta, nu = _vec(wk, "eta", 3), _vec(wk, "nu", 3)
+        if "thrust" in wk:
+            thrust = np.array(wk["thrust"], dtype=float)
+        if "frame_count" in wk:
+            count = int(wk["frame_count"])
+    else:
+        pos, vel = _vec(msg, "position", 3), _vec(msg, "velocity", 3)
+        gyro = _vec(msg["imu"], "gyro", 3)
+        if "quaternion" in msg:
+            qw, qx, qy, qz = _vec(msg, "quaternion", 4)
+            theta = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
+        else:
+            theta = float(_vec(msg, "attitude", 3)[1])
+        u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
+        eta = np.array([pos[0], pos[2], theta])
+        nu = np.array([u, w, gyro[1]])
+    return StateReply(ts, eta, nu, thrust, count)

@@ -1,0 +1,87 @@
+"""What a run leaves behind: its results document, its per-tick time series, and how they are written.
+
+Shared by the in-process run, the launcher, reproduce, campaigns and the
+figures, so that every transport writes the same ``results.json`` schema and
+the same ``timeseries.csv`` columns.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bridge.models.waves import WaveComponents, elevation
+from firmware_py.firmware import TICK_COLUMNS
+
+from sitl.sea import Sea
+
+from .metrics import station_keeping_metrics
+from .spec import RunSpec
+
+__all__ = ["TIMESERIES_COLUMNS", "RunResult", "elevation_along", "mission_results", "write_results"]
+
+TIMESERIES_COLUMNS = tuple(
+    ["t", "x", "z", "theta", "u", "w", "q"]          # truth at the tick
+    + TICK_COLUMNS                                     # what the firmware's tick saw and did
+    + ["tauE_X", "tauE_Z", "tauE_M"]                   # true wave load at the end of the tick's period
+    + ["wave_eta", "forecast_eta"]                     # elevations at the vehicle's x
+)
+"""Columns of ``timeseries.csv``: one row per control tick."""
+
+COLUMN = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
+"""Index of each column of :data:`TIMESERIES_COLUMNS`."""
+
+
+@dataclass
+class RunResult:
+    results: dict[str, Any]     # the results.json document
+    timeseries: np.ndarray      # (ticks, len(TIMESERIES_COLUMNS))
+
+
+def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
+    """Wave elevation ζ (m) at the points (x[i], t[i]), in chunks to bound the (points × components) memory."""
+    return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
+
+
+def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpoint: np.ndarray,
+                    log: np.ndarray, control_stats: dict[str, Any]) -> dict[str, Any]:
+    """The ``results.json`` fields every mission reports, from its time series (in-process or launched).
+
+    ``control_stats`` is the scheduler's statistics document (``overruns`` and the
+    control task's ``compute`` timing).
+    """
+    c = COLUMN
+    metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, c["tau_X"]:c["tau_M"] + 1])
+    estimate_error = log[:, c["x_hat"]:c["q_hat"] + 1] - log[:, 1:7]
+    return {
+        "case": sea.name,
+        "controller": spec.controller,
+        "forecast": spec.forecast_source,
+        "forecast_snr_db": spec.snr_db if spec.ff else None,
+        "seed": sea.seed,
+        "duration_s": duration,
+        "rate_hz": rate,
+        **metrics,
+        "tick_overruns": control_stats.get("overruns", 0),
+        "label": spec.label,
+        "hs_target_m": sea.hs_target,
+        "hs_realised_m": float(4.0 * np.std(elevation_along(sea.components, np.full(len(log), setpoint[0]),
+                                                            log[:, 0]))),
+        "ekf": {"rms_error": dict(zip(("x", "z", "theta", "u", "w", "q"),
+                                      np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True))},
+        "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
+        "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
+    }
+
+
+def write_results(result: RunResult, out: str | Path) -> Path:
+    """DIR/results.json and DIR/timeseries.csv."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(result.results, indent=2))
+    np.savetxt(out / "timeseries.csv", result.timeseries, delimiter=",", header=",".join(TIMESERIES_COLUMNS),
+               comments="", fmt="%.6g")
+    return out

@@ -1,0 +1,83 @@
+"""What one run is: the run options, in one spec object shared by every way of flying a mission.
+
+:class:`RunSpec` is what ``wavekeep run``, ``wavekeep sim``, ``wavekeep live``,
+``wavekeep reproduce`` and campaigns all take: the sea state, the controller,
+the forecast source and its error, the seed, the duration, the mission and
+vehicle configs, and parameter overrides. It validates itself, so a bad
+combination (an SNR given to C-PD, an unknown forecast source) is refused
+before anything runs. How a run is carried out (in process, across processes,
+on a wall clock) is the caller's business, never the spec's.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+__all__ = ["CONTROLLERS", "FORECAST_SOURCES", "PAPER_CASES", "PAPER_VARIANTS", "RunSpec"]
+
+CONTROLLERS = ("cpd", "cpd_ff")
+"""``cpd``: cascaded PD feedback alone; ``cpd_ff``: with the wave feed-forward (paper Eq. 12)."""
+
+FORECAST_SOURCES = ("oracle", "dswp")
+"""``oracle``: the true sea's components, optionally with the paper's injected error (``snr_db``);
+``dswp``: predicted from the up-wave buoy's record (deterministic sea wave prediction)."""
+
+MAX_SEED = 2**63 - 1
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One mission's options (see the module docstring). ``snr_db`` is None for the exact forecast."""
+
+    case: str = "W3"
+    controller: str = "cpd_ff"
+    snr_db: float | None = None
+    seed: int | None = None
+    duration: float | None = None          # s; None: the mission config's
+    mission: str = "station_keeping"
+    vehicle: str = "bluerov2_heavy"
+    forecast: str = "oracle"
+    overrides: Mapping[str, float] = field(default_factory=dict)   # parameter NAME → value
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {', '.join(CONTROLLERS)}, got {self.controller!r}")
+        if self.forecast not in FORECAST_SOURCES:
+            raise ValueError(f"forecast must be one of {', '.join(FORECAST_SOURCES)}, got {self.forecast!r}")
+        if self.snr_db is not None:
+            if not math.isfinite(self.snr_db) or not -20.0 <= self.snr_db <= 80.0:
+                raise ValueError(f"forecast SNR must be a finite number of dB in [-20, 80], got {self.snr_db}")
+            if not self.ff or self.forecast != "oracle":
+                raise ValueError("a forecast SNR applies only to C-PD+FF with the oracle forecast")
+        if self.seed is not None and not 0 <= self.seed <= MAX_SEED:
+            raise ValueError(f"seed must be in [0, {MAX_SEED}], got {self.seed}")
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
+            raise ValueError(f"duration must be a positive number of seconds, got {self.duration}")
+        object.__setattr__(self, "overrides", dict(self.overrides))
+
+    @property
+    def ff(self) -> bool:
+        """Does the firmware run the wave feed-forward?"""
+        return self.controller == "cpd_ff"
+
+    @property
+    def forecast_source(self) -> str | None:
+        """Where the forecast comes from (``oracle``/``dswp``), or None for feedback alone."""
+        return self.forecast if self.ff else None
+
+    @property
+    def label(self) -> str:
+        """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``."""
+        if not self.ff:
+            return "C-PD"
+        if self.forecast == "dswp":
+            return "C-PD+FF DSWP"
+        return "C-PD+FF exact" if self.snr_db is None else f"C-PD+FF {self.snr_db:g} dB"
+
+
+PAPER_CASES = ("W1", "W2", "W3")
+"""The paper's sea states (Table I)."""
+
+PAPER_VARIANTS = (RunSpec(controller="cpd"), RunSpec(controller="cpd_ff"), RunSpec(controller="cpd_ff", snr_db=15.0))
+"""The paper's three controllers: C-PD, C-PD+FF with the exact forecast, and with a 15 dB forecast error."""
