@@ -44,14 +44,14 @@ def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
 
     from bridge.forecast import derive_seeds, oracle_forecast
     from bridge.forecast_codec import ForecastDecodeError, decode_forecast, encode_forecast
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
     from firmware_py.firmware import Firmware
     from firmware_py.gcs import MavlinkLink
     from firmware_py.hal_json import JSONSITLHAL
     from firmware_py.modes import Mode
     from firmware_py.params import load_params
-    from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from bridge.models.vehicle import VehicleParams
     from firmware_py.scheduler import Task
     from sitl.faultrelay import FaultRelay, Faults
     from sitl.physics_server import PhysicsServer

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BuoyRecord", "BuoyDecodeError", "encode_buoy", "decode_buoy"]
+__all__ = ["BuoyDecodeError", "BuoyRecord", "decode_buoy", "encode_buoy"]
 
 MAGIC = b"WKBY"
 VERSION = 1

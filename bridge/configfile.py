@@ -10,19 +10,20 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import yaml
 
 __all__ = [
     "ConfigError",
     "Field",
-    "load_config",
-    "validate",
     "configs_dir",
+    "load_config",
     "resolve_config",
+    "validate",
 ]
 
 

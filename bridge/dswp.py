@@ -115,7 +115,7 @@ import numpy as np
 from bridge.forecast import Forecast
 from bridge.models.waves import G, wavenumber
 
-__all__ = ["predict_from_buoy", "group_velocity", "predictable_zone", "TAPERS"]
+__all__ = ["TAPERS", "group_velocity", "predict_from_buoy", "predictable_zone"]
 
 TAPERS = ("none", "hann")
 """Bin-selection tapers accepted by :func:`predict_from_buoy`."""

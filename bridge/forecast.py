@@ -21,7 +21,7 @@ import numpy as np
 
 from bridge.models.waves import WaveComponents
 
-__all__ = ["Forecast", "inject_spectral_noise", "oracle_forecast", "derive_seeds"]
+__all__ = ["Forecast", "derive_seeds", "inject_spectral_noise", "oracle_forecast"]
 
 
 @dataclass(frozen=True)

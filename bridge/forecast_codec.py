@@ -37,8 +37,15 @@ import numpy as np
 
 from .forecast import Forecast
 
-__all__ = ["MAGIC", "VERSION", "MAX_COMPONENTS", "MAX_PAYLOAD", "ForecastDecodeError", "encode_forecast",
-           "decode_forecast"]
+__all__ = [
+    "MAGIC",
+    "MAX_COMPONENTS",
+    "MAX_PAYLOAD",
+    "VERSION",
+    "ForecastDecodeError",
+    "decode_forecast",
+    "encode_forecast",
+]
 
 MAGIC = b"WKFC"
 VERSION = 1

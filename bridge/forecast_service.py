@@ -140,5 +140,5 @@ class ForecastService:
         for h in (self._token, self._pub, self._buoy, self._queries):
             try:
                 h.undeclare()
-            except Exception:  # noqa: BLE001 - the session may already be closed
+            except Exception:
                 pass

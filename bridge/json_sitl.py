@@ -32,18 +32,18 @@ from bridge.models.vehicle import body_to_ned, ned_to_body
 __all__ = [
     "MAGIC_16",
     "MAGIC_32",
-    "SERVO_16",
-    "SERVO_32",
     "MAX_FRAME_RATE_HZ",
     "PWM_RANGE_US",
+    "SERVO_16",
+    "SERVO_32",
     "THRUSTER_CHANNELS",
     "ServoPacket",
     "StateReply",
-    "servo_packet",
     "decode_servo_packet",
-    "state_message",
-    "encode_state",
     "decode_state",
+    "encode_state",
+    "servo_packet",
+    "state_message",
 ]
 
 MAGIC_16 = 18458

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["check_site", "forecast_key", "forecast_latest_key", "buoy_key", "service_token_key"]
+__all__ = ["buoy_key", "check_site", "forecast_key", "forecast_latest_key", "service_token_key"]
 
 _SITE = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from bridge.configfile import Field, load_config, resolve_config
 
-__all__ = ["VEHICLE_SCHEMA", "MISSION_SCHEMA", "load_vehicle_config", "load_mission_config"]
+__all__ = ["MISSION_SCHEMA", "VEHICLE_SCHEMA", "load_mission_config", "load_vehicle_config"]
 
 _pos = dict(lo=0.0, lo_open=True)
 

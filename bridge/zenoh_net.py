@@ -14,7 +14,7 @@ from pathlib import Path
 from .configfile import Field, load_config, resolve_config
 from .keys import check_site
 
-__all__ = ["NETWORK_SCHEMA", "load_network_config", "zenoh_config", "open_session"]
+__all__ = ["NETWORK_SCHEMA", "load_network_config", "open_session", "zenoh_config"]
 
 NETWORK_SCHEMA = {
     "site": Field("str"),

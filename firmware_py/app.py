@@ -98,13 +98,14 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     from bridge.configfile import ConfigError
     from bridge.forecast import derive_seeds
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
+
     from .firmware import Firmware
     from .gcs import MavlinkLink, load_signing_key
     from .hal_json import JSONSITLHAL
     from .params import load_params
-    from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from bridge.models.vehicle import VehicleParams
     from .scheduler import LockstepPacedClock, Task
 
     stop = threading.Event()
@@ -133,6 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     session = forecast_link = None
     if not args.no_forecast:
         from bridge.zenoh_net import load_network_config, open_session
+
         from .forecast_link import ZenohForecastLink
         net = load_network_config(args.network)
         session = open_session(net, "vehicle")

@@ -20,13 +20,13 @@ Structure, after the authors' implementation (REFERENCE §7):
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .params import ParameterTable
 from bridge.models.vehicle import VehicleParams, ned_to_body, restoring_forces
+
+from .params import ParameterTable
 
 __all__ = ["ControlOutput", "StationKeepingController"]
 

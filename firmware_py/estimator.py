@@ -21,11 +21,12 @@ from __future__ import annotations
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from .params import ParameterTable
 from bridge.models.vehicle import BodyFlow, VehicleParams, rk4_step, state_rates
+
+from .params import ParameterTable
 from .sensors import SensorFrame
 
-__all__ = ["PlanarEKF", "MEASURED_STATES", "CHANNELS"]
+__all__ = ["CHANNELS", "MEASURED_STATES", "PlanarEKF"]
 
 MEASURED_STATES = (0, 1, 2, 5)
 """State index of each measurement channel: x, depth, pitch, pitch rate."""

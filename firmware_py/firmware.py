@@ -14,10 +14,13 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
+
+from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
@@ -26,12 +29,10 @@ from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mode
 from .params import ParameterTable
-from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 
-__all__ = ["TickRecord", "TICK_COLUMNS", "tick_row", "PilotInput", "Firmware"]
+__all__ = ["TICK_COLUMNS", "Firmware", "PilotInput", "TickRecord", "tick_row"]
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from bridge.forecast import Forecast
 from bridge.models.waves import WaveComponents
 
-__all__ = ["ForecastHandoff", "ActiveForecast"]
+__all__ = ["ActiveForecast", "ForecastHandoff"]
 
 
 @dataclass(frozen=True)

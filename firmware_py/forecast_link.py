@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from typing import Callable
+from collections.abc import Callable
 
 from bridge.forecast_codec import ForecastDecodeError, decode_forecast
 from bridge.keys import forecast_key, forecast_latest_key, service_token_key
@@ -56,7 +56,7 @@ class ZenohForecastLink:
         self._last_query = now
         try:
             self._replies = self._session.get(self._latest_key, handler=zenoh.handlers.FifoChannel(4), timeout=1.0)
-        except Exception:  # noqa: BLE001 - a failed query is retried a second later
+        except Exception:
             self._replies = None
 
     def _take(self, payload: bytes) -> None:
@@ -92,7 +92,7 @@ class ZenohForecastLink:
         if self._replies is not None:
             try:
                 reply = self._replies.try_recv()
-            except Exception:  # noqa: BLE001 - the query finished (zenoh closes its channel)
+            except Exception:
                 self._replies, reply = None, None
             if reply is not None and reply.ok is not None:
                 self._take(reply.ok.payload.to_bytes())
@@ -105,5 +105,5 @@ class ZenohForecastLink:
         for h in (self._sub, self._live):
             try:
                 h.undeclare()
-            except Exception:  # noqa: BLE001 - closing a session that is already gone
+            except Exception:
                 pass

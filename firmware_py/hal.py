@@ -23,7 +23,7 @@ from .params import ParameterTable
 from .scheduler import Clock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
-__all__ = ["HAL", "PlantLike", "InProcessSITLHAL", "PWM_CHANNELS"]
+__all__ = ["HAL", "PWM_CHANNELS", "InProcessSITLHAL", "PlantLike"]
 
 PWM_CHANNELS = 8
 

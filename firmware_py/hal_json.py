@@ -39,7 +39,7 @@ from .params import ParameterTable
 from .scheduler import Clock, LockstepPacedClock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
-__all__ = ["JSONSITLHAL", "JSONState", "HALCounters", "DEFAULT_TIMEOUT_S"]
+__all__ = ["DEFAULT_TIMEOUT_S", "JSONSITLHAL", "HALCounters", "JSONState"]
 
 DEFAULT_TIMEOUT_S = 0.5          # wall seconds without a reply before the plant counts as silent
 TIMEOUT_PARAM = "SIM_JSON_TMO"   # used instead of the default if the parameter table defines it
@@ -157,7 +157,7 @@ class JSONSITLHAL(HAL):
             self._closed = True
             self._sock.close()
 
-    def __enter__(self) -> "JSONSITLHAL":
+    def __enter__(self) -> JSONSITLHAL:
         self.start()
         return self
 
@@ -216,7 +216,7 @@ class JSONSITLHAL(HAL):
                 else:
                     self._sock.settimeout(remaining)
                 data = self._sock.recv(_RECV_BYTES)
-            except (socket.timeout, BlockingIOError, InterruptedError):
+            except (TimeoutError, BlockingIOError, InterruptedError):
                 return False
             except ConnectionRefusedError:   # nothing listening (ICMP port unreachable): keep waiting
                 if remaining <= 0:

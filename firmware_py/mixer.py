@@ -25,9 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .params import ParameterTable
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import motor_lag_stages
+
+from .params import ParameterTable
 
 __all__ = ["MixerOutput", "MotorMixer"]
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from enum import IntEnum
 
-__all__ = ["Mode", "MODE_NAMES", "AUTO_AXES", "GUIDED_GROUP", "MAV_RESULT", "MAV_STATE", "MAV_SEVERITY"]
+__all__ = ["AUTO_AXES", "GUIDED_GROUP", "MAV_RESULT", "MAV_SEVERITY", "MAV_STATE", "MODE_NAMES", "Mode"]
 
 
 class Mode(IntEnum):

@@ -13,13 +13,13 @@ the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
-__all__ = ["ParamDef", "PARAM_DEFS", "ParameterTable", "load_params"]
+__all__ = ["PARAM_DEFS", "ParamDef", "ParameterTable", "load_params"]
 
 
 @dataclass(frozen=True)
@@ -179,7 +179,7 @@ class ParameterTable:
     def as_dict(self) -> dict[str, float]:
         return dict(self._values)
 
-    def copy(self) -> "ParameterTable":
+    def copy(self) -> ParameterTable:
         return ParameterTable(self._defs.values(), self._values)
 
 

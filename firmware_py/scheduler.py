@@ -48,12 +48,13 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Protocol, runtime_checkable
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Clock", "WallClock", "SimClock", "LockstepPacedClock", "Task", "TaskStats", "Scheduler"]
+__all__ = ["Clock", "LockstepPacedClock", "Scheduler", "SimClock", "Task", "TaskStats", "WallClock"]
 
 
 @runtime_checkable

@@ -22,7 +22,7 @@ import numpy as np
 
 from .params import ParameterTable
 
-__all__ = ["SensorFrame", "SimulatedSensors", "ATM_PA", "RHO_SEAWATER", "depth_to_pressure"]
+__all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure"]
 
 ATM_PA = 101325.0          # Pa at the surface
 RHO_SEAWATER = 1025.0      # kg/m³

@@ -53,5 +53,5 @@ class BuoyPublisher:
     def close(self) -> None:
         try:
             self._pub.undeclare()
-        except Exception:  # noqa: BLE001
+        except Exception:
             pass

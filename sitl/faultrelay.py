@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Faults", "FaultRelay"]
+__all__ = ["FaultRelay", "Faults"]
 
 
 @dataclass(frozen=True)
@@ -133,7 +133,7 @@ class FaultRelay:
                     self._schedule("down", data)
             self._flush()
 
-    def start(self) -> "FaultRelay":
+    def start(self) -> FaultRelay:
         self._thread = threading.Thread(target=self._run, name=f"fault-relay:{self.port}", daemon=True)
         self._thread.start()
         return self
@@ -145,7 +145,7 @@ class FaultRelay:
         self._front.close()
         self._back.close()
 
-    def __enter__(self) -> "FaultRelay":
+    def __enter__(self) -> FaultRelay:
         return self.start()
 
     def __exit__(self, *exc) -> None:

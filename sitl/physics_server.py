@@ -37,14 +37,13 @@ from __future__ import annotations
 
 import argparse
 import errno
-import math
 import signal
 import socket
 import sys
 import threading
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -52,10 +51,10 @@ from bridge.json_sitl import decode_servo_packet, encode_state, state_message
 
 __all__ = [
     "PhysicsServer",
-    "ServerCounters",
     "PortInUseError",
-    "plant_state_message",
+    "ServerCounters",
     "main",
+    "plant_state_message",
 ]
 
 DEFAULT_PORT = 9002
@@ -205,7 +204,7 @@ class PhysicsServer:
         while not stop.is_set():
             try:
                 data, addr = sock.recvfrom(_RECV_BYTES)
-            except (socket.timeout, BlockingIOError, InterruptedError):
+            except (TimeoutError, BlockingIOError, InterruptedError):
                 continue
             except ConnectionError:     # ICMP unreachable from an earlier reply (some platforms)
                 continue
@@ -215,7 +214,7 @@ class PhysicsServer:
                 raise
             self.handle(data, addr)
 
-    def start(self) -> "PhysicsServer":
+    def start(self) -> PhysicsServer:
         """Serve in a daemon thread."""
         if self._thread is not None and self._thread.is_alive():
             return self
@@ -236,7 +235,7 @@ class PhysicsServer:
     def close(self) -> None:
         self._sock.close()
 
-    def __enter__(self) -> "PhysicsServer":
+    def __enter__(self) -> PhysicsServer:
         return self.start()
 
     def __exit__(self, *exc) -> None:
@@ -306,6 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         sea = Sea.load(args.case, seed=args.seed)
         if args.buoy_network:
             from bridge.zenoh_net import load_network_config, open_session
+
             from .buoy_publisher import BuoyPublisher
             net = load_network_config(args.buoy_network)
             session = open_session(net, "plant")

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bridge.schemas import load_mission_config, load_vehicle_config
 from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
@@ -32,10 +31,11 @@ from bridge.models.vehicle import (
     strip_nodes,
     wave_load,
 )
+from bridge.schemas import load_mission_config, load_vehicle_config
 
 from .sea import Sea
 
-__all__ = ["PlantState", "Plant"]
+__all__ = ["Plant", "PlantState"]
 
 
 @dataclass
@@ -47,7 +47,7 @@ class PlantState:
     nu: np.ndarray = field(default_factory=lambda: np.zeros(3))        # [u, w (m/s), q (rad/s)] body
     thrust: np.ndarray = field(default_factory=lambda: np.zeros(8))    # actual thrust per thruster (N)
 
-    def copy(self) -> "PlantState":
+    def copy(self) -> PlantState:
         return PlantState(self.t, self.eta.copy(), self.nu.copy(), self.thrust.copy())
 
 
@@ -72,7 +72,7 @@ class Plant:
         self.nu_dot = np.zeros(3)       # body acceleration at the end of the last step
 
     @classmethod
-    def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping") -> "Plant":
+    def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping") -> Plant:
         vcfg = load_vehicle_config(vehicle)
         mcfg = load_mission_config(mission)
         plant = cls(VehicleParams.from_config(vcfg), sea, ThrusterLayout.from_config(vcfg["thrusters"]),

@@ -11,15 +11,16 @@ stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from scipy.integrate import quad
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
+from bridge.csvio import read_numeric_csv
 from bridge.models.waves import (
     G,
     WaveComponents,
@@ -29,15 +30,13 @@ from bridge.models.waves import (
     particle_velocity,
 )
 
-from bridge.csvio import read_numeric_csv
-
 __all__ = [
-    "jonswap_spectrum",
+    "SEA_SCHEMA",
     "MeasuredSpectrum",
-    "discretise_spectrum",
     "Sea",
     "WaveBuoy",
-    "SEA_SCHEMA",
+    "discretise_spectrum",
+    "jonswap_spectrum",
     "load_sea_config",
 ]
 
@@ -107,7 +106,7 @@ class MeasuredSpectrum:
         self.source = source
 
     @classmethod
-    def from_csv(cls, path: str | Path) -> "MeasuredSpectrum":
+    def from_csv(cls, path: str | Path) -> MeasuredSpectrum:
         arr = read_numeric_csv(path, ("frequency_hz", "density_m2_per_hz"))
         return cls(arr[:, 0], arr[:, 1], source=str(path))
 
@@ -207,7 +206,7 @@ class Sea:
     buoy_rate: float = 2.0
 
     @classmethod
-    def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> "Sea":
+    def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
         """Build a sea from a validated sea config; ``seed`` overrides the config's."""
         sp = cfg["spectrum"]
         if sp["type"] == "jonswap":
@@ -227,12 +226,12 @@ class Sea:
         return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, cfg["buoy"]["x"], cfg["buoy"]["sample_rate"])
 
     @classmethod
-    def load(cls, case: str | Path, seed: int | None = None) -> "Sea":
+    def load(cls, case: str | Path, seed: int | None = None) -> Sea:
         """``Sea.load("W1")`` or ``Sea.load("path/to/sea.yaml")``."""
         return cls.from_config(load_sea_config(case), seed)
 
     @classmethod
-    def still_water(cls, depth: float = 54.0) -> "Sea":
+    def still_water(cls, depth: float = 54.0) -> Sea:
         """No waves (for hydrostatic checks)."""
         z = np.zeros(0)
         return cls("still", WaveComponents(z, z, z, z, depth, False), lambda w: np.zeros_like(w), 1.0, 0.0, 0)
@@ -261,7 +260,7 @@ class Sea:
         """(u, w, u̇, ẇ) at (x, depth, t) in one pass."""
         return particle_kinematics(self.components, x, depth, t)
 
-    def buoy(self, x: float | None = None, sample_rate: float | None = None) -> "WaveBuoy":
+    def buoy(self, x: float | None = None, sample_rate: float | None = None) -> WaveBuoy:
         return WaveBuoy(self, self.buoy_x if x is None else x, self.buoy_rate if sample_rate is None else sample_rate)
 
 

@@ -32,7 +32,7 @@ def exchange(relay: FaultRelay, server: socket.socket, payloads: list[bytes], wa
     while time.monotonic() < end:
         try:
             got.append(server.recv(100))
-        except socket.timeout:
+        except TimeoutError:
             pass
     client.close()
     return got
@@ -136,7 +136,7 @@ def test_hal_survives_bad_replies_from_the_plant():
         while not stop.is_set() and i < len(script):
             try:
                 data, addr = sock.recvfrom(200)
-            except socket.timeout:
+            except TimeoutError:
                 continue
             count = struct.unpack_from("<HHI", data)[2]
             sock.sendto(script[i](count), addr)

@@ -8,15 +8,15 @@ import pytest
 
 from bridge.configfile import ConfigError
 from bridge.forecast import Forecast, inject_spectral_noise, oracle_forecast
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.waves import elevation
 from bridge.schemas import load_vehicle_config
 from firmware_py.forecast import ForecastHandoff
 from firmware_py.mixer import MotorMixer
 from firmware_py.params import PARAM_DEFS, load_params
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.waves import elevation
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
-from sitl.sea import Sea
 from sitl.harness.spec import RunSpec
+from sitl.sea import Sea
 
 COL = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
 
@@ -34,6 +34,7 @@ def thrusters():
 def sea_file(tmp_path, hs: float | None = None, name: str = "W1") -> str:
     """A copy of a sea config with another Hs (None: still water, via a vanishing Hs)."""
     import yaml
+
     from bridge.configfile import configs_dir
     data = yaml.safe_load((configs_dir() / "sea" / f"{name}.yaml").read_text())
     data["spectrum"]["hs"] = hs if hs is not None else 1e-9
@@ -120,8 +121,8 @@ def test_ekf_error_is_consistent_with_its_covariance():
 
 
 def test_ekf_gates_outliers_and_recovers():
-    from firmware_py.estimator import PlanarEKF
     from bridge.models.vehicle import VehicleParams
+    from firmware_py.estimator import PlanarEKF
     from firmware_py.sensors import SensorFrame
 
     params = load_params()
@@ -191,6 +192,7 @@ def test_parameter_table_names_ranges_and_runtime_sets():
 
 def test_bad_parameter_file_names_the_key(tmp_path):
     import yaml
+
     from bridge.configfile import configs_dir
     data = yaml.safe_load((configs_dir() / "firmware" / "params.yaml").read_text())
     data["WK_THR_MAX"] = 500

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 os.environ["MAVLINK20"] = "1"
-from pymavlink import mavutil  # noqa: E402
+from pymavlink import mavutil
 
 
 def free_port(kind=socket.SOCK_DGRAM) -> int:

@@ -15,20 +15,20 @@ import numpy as np
 import pytest
 
 from bridge.forecast import derive_seeds, oracle_forecast
+from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
+from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.firmware import Firmware
-from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
 from firmware_py.hal_json import JSONSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import load_params
 from firmware_py.scheduler import WallClock
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import VehicleParams
+from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
+from sitl.harness.spec import RunSpec
 from sitl.physics_server import PhysicsServer, PortInUseError
 from sitl.plant import Plant
-from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.sea import Sea
-from sitl.harness.spec import RunSpec
 
 ROOT = Path(__file__).resolve().parents[1]
 RATE = 20
@@ -75,7 +75,7 @@ def no_reply(sock, wait=0.15) -> bool:
     sock.settimeout(wait)
     try:
         sock.recv(65536)
-    except socket.timeout:
+    except TimeoutError:
         return True
     finally:
         sock.settimeout(2.0)

@@ -7,8 +7,8 @@ import pytest
 from firmware_py.modes import MAV_RESULT, MAV_STATE, Mode
 from firmware_py.params import load_params
 from sitl.harness.run import build_mission
-from sitl.harness.thrust import csv_profile, pattern_profile
 from sitl.harness.spec import RunSpec
+from sitl.harness.thrust import csv_profile, pattern_profile
 
 
 def tick(m, n: int = 1):

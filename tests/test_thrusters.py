@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bridge.schemas import load_vehicle_config
 from bridge.models.thrusters import KGF, T200Curve, ThrusterLayout, power_per_dof
+from bridge.schemas import load_vehicle_config
 
 # REFERENCE §5: 16 V samples, PWM µs → kgf (Blue Robotics T200 performance data)
 PUBLISHED = [(1100, -4.07), (1184, -2.94), (1308, -1.35), (1472, 0.0), (1528, 0.0), (1624, 0.87),

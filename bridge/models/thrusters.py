@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import PchipInterpolator
 
-__all__ = ["KGF", "NEUTRAL_PWM_US", "T200Curve", "ThrusterLayout", "power_per_dof", "WRENCH_AXES"]
+__all__ = ["KGF", "NEUTRAL_PWM_US", "WRENCH_AXES", "T200Curve", "ThrusterLayout", "power_per_dof"]
 
 KGF = 9.80665
 """Newtons per kilogram-force."""
@@ -73,7 +73,7 @@ class T200Curve:
         return out if out.ndim else float(out)
 
     @classmethod
-    def from_config(cls, cfg: dict) -> "T200Curve":
+    def from_config(cls, cfg: dict) -> T200Curve:
         """From the ``thrusters`` section of a vehicle config (PWM µs and thrust in kgf)."""
         curve = cfg["curve"]
         return cls(curve["pwm_us"], np.asarray(curve["thrust_kgf"]) * KGF,
@@ -115,7 +115,7 @@ class ThrusterLayout:
         return W[[0, 2, 4], :]
 
     @classmethod
-    def from_config(cls, cfg: dict) -> "ThrusterLayout":
+    def from_config(cls, cfg: dict) -> ThrusterLayout:
         items = cfg["layout"]
         return cls(np.array([t["position"] for t in items]), np.array([t["direction"] for t in items]),
                    tuple(t["name"] for t in items))

@@ -24,21 +24,21 @@ import numpy as np
 from .waves import G, WaveComponents, particle_kinematics_grid
 
 __all__ = [
-    "VehicleParams",
+    "BodyFlow",
     "J",
+    "VehicleParams",
+    "body_flow",
     "body_to_ned",
-    "ned_to_body",
     "coriolis_matrix",
     "damping_matrix",
+    "hydrodynamic_load",
+    "motor_lag_stages",
+    "ned_to_body",
     "restoring_forces",
     "rk4_step",
-    "motor_lag_stages",
     "state_rates",
     "strip_nodes",
     "submerged_fraction",
-    "BodyFlow",
-    "body_flow",
-    "hydrodynamic_load",
     "wave_load",
 ]
 
@@ -101,7 +101,7 @@ class VehicleParams:
         return np.diag([self.X_uu, self.Z_ww, self.M_qq])
 
     @classmethod
-    def from_config(cls, cfg: dict) -> "VehicleParams":
+    def from_config(cls, cfg: dict) -> VehicleParams:
         """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`bridge.schemas`)."""
         mp, am, dp = cfg["mass_properties"], cfg["added_mass"], cfg["damping"]
         return cls(W=mp["W"], B=mp["B"], I_y=mp["I_y"], r_G=np.array(mp["r_G"]), r_B=np.array(mp["r_B"]),
@@ -110,7 +110,7 @@ class VehicleParams:
                    Z_ww=dp["Z_ww"], M_qq=dp["M_qq"])
 
     @classmethod
-    def load(cls, path: str | Path) -> "VehicleParams":
+    def load(cls, path: str | Path) -> VehicleParams:
         from bridge.schemas import load_vehicle_config
         return cls.from_config(load_vehicle_config(path))
 

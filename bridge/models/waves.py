@@ -35,12 +35,12 @@ import numpy as np
 __all__ = [
     "G",
     "WaveComponents",
-    "wavenumber",
     "elevation",
+    "particle_acceleration",
     "particle_kinematics",
     "particle_kinematics_grid",
     "particle_velocity",
-    "particle_acceleration",
+    "wavenumber",
 ]
 
 G = 9.81
@@ -95,7 +95,7 @@ class WaveComponents:
 
     @classmethod
     def from_spectrum_lines(cls, amplitude, omega, phase, water_depth: float,
-                            second_order: bool = True, g: float = G) -> "WaveComponents":
+                            second_order: bool = True, g: float = G) -> WaveComponents:
         """Build components, solving the dispersion relation for k."""
         omega = np.asarray(omega, dtype=float)
         return cls(np.asarray(amplitude, dtype=float), omega, wavenumber(omega, water_depth, g),

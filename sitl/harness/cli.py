@@ -44,8 +44,8 @@ def _add_common(p: argparse.ArgumentParser) -> None:
 
 def cmd_sea(args) -> int:
     """Write t, eta, u, w at the vehicle's station (x from the mission, depth from the mission)."""
-    from bridge.schemas import load_mission_config
     from bridge.models.waves import particle_kinematics_grid
+    from bridge.schemas import load_mission_config
     from sitl.sea import Sea
 
     sea = Sea.load(args.case, seed=args.seed)
@@ -76,10 +76,11 @@ def cmd_sea(args) -> int:
 def cmd_openloop(args) -> int:
     """The passive vehicle (all thrusters at 1500 µs) released at the setpoint in the sea."""
     from bridge.schemas import load_mission_config
-    from .metrics import format_table, station_keeping_metrics
     from sitl.plant import Plant
-    from .progress import ProgressBar
     from sitl.sea import Sea
+
+    from .metrics import format_table, station_keeping_metrics
+    from .progress import ProgressBar
 
     sea = Sea.load(args.case, seed=args.seed)
     mission = load_mission_config(args.mission)
@@ -207,8 +208,8 @@ def cmd_forecast(args) -> int:
 
     from bridge.forecast import derive_seeds, oracle_forecast
     from bridge.forecast_service import ForecastService
-    from bridge.zenoh_net import load_network_config, open_session
     from bridge.schemas import load_mission_config
+    from bridge.zenoh_net import load_network_config, open_session
     from sitl.sea import Sea
 
     net = load_network_config(args.network)

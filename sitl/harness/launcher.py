@@ -46,7 +46,7 @@ from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mis
 from .run import write_run
 from .spec import RunSpec
 
-__all__ = ["SimOptions", "LaunchError", "launch"]
+__all__ = ["LaunchError", "SimOptions", "launch"]
 
 
 class LaunchError(RuntimeError):

@@ -44,7 +44,7 @@ class LiveSim:
         self.realtime = realtime
         self.scheduling = "normal"
 
-    def start(self) -> "LiveSim":
+    def start(self) -> LiveSim:
         self.link.start()
         self._thread = threading.Thread(target=self._run, name="wavekeep-live", daemon=True)
         self._thread.start()
@@ -65,7 +65,7 @@ class LiveSim:
             self._thread.join(timeout=5.0)
         self.link.stop()
 
-    def __enter__(self) -> "LiveSim":
+    def __enter__(self) -> LiveSim:
         return self.start()
 
     def __exit__(self, *exc) -> None:

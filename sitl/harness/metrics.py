@@ -10,7 +10,7 @@ import numpy as np
 
 from bridge.models.thrusters import power_per_dof
 
-__all__ = ["DOF", "station_keeping_metrics", "format_table"]
+__all__ = ["DOF", "format_table", "station_keeping_metrics"]
 
 DOF = ("surge", "heave", "pitch")
 

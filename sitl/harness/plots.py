@@ -24,7 +24,7 @@ from .results import TIMESERIES_COLUMNS, RunResult
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["plot_run", "plot_reproduce", "REPRODUCE_FIGURES", "LABELS"]
+__all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_reproduce", "plot_run"]
 
 DPI = 120
 LABELS: tuple[str, ...] = tuple(v.label for v in PAPER_VARIANTS)   # C-PD, exact, 15 dB

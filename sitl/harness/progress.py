@@ -31,7 +31,7 @@ class ProgressBar:
                           f"{elapsed:5.1f}s")
         self.stream.flush()
 
-    def __enter__(self) -> "ProgressBar":
+    def __enter__(self) -> ProgressBar:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -23,7 +23,7 @@ from .run import run_mission
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS, RunSpec
 
-__all__ = ["PAPER", "reproduce", "summarise", "format_reproduce_table"]
+__all__ = ["PAPER", "format_reproduce_table", "reproduce", "summarise"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 

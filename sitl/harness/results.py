@@ -15,7 +15,6 @@ import numpy as np
 
 from bridge.models.waves import WaveComponents, elevation
 from firmware_py.firmware import TICK_COLUMNS
-
 from sitl.sea import Sea
 
 from .metrics import station_keeping_metrics

@@ -23,7 +23,7 @@ import numpy as np
 
 from bridge.csvio import read_numeric_csv
 
-__all__ = ["ThrustProfile", "pattern_profile", "csv_profile", "stick_messages", "stream_thrust"]
+__all__ = ["ThrustProfile", "csv_profile", "pattern_profile", "stick_messages", "stream_thrust"]
 
 PATTERNS = ("zero", "step", "square", "sine", "sweep")
 AXES = ("surge", "heave", "pitch")
