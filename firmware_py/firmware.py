@@ -347,7 +347,7 @@ class Firmware:
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
-        if ff_active:
+        if ff_active and flow is not None:
             # τ̂_E on the vehicle holding station (ν = 0) at the end of the period, when the mixer
             # has the motors at their demand. The load's dependence on the vehicle's own motion is
             # left to the feedback: through the quadratic drag it would turn velocity-estimate

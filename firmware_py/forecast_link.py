@@ -14,6 +14,7 @@ the last forecast it sent expires.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -103,7 +104,5 @@ class ZenohForecastLink:
 
     def close(self) -> None:
         for h in (self._sub, self._live):
-            try:
+            with contextlib.suppress(Exception):
                 h.undeclare()
-            except Exception:
-                pass

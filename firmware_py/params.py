@@ -55,14 +55,15 @@ class ParamDef:
 def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: str) -> list[ParamDef]:
     """One parameter per DoF: _X surge, _Z heave, _P pitch."""
     return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
-            for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units)]
+            for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units, strict=False)]
 
 
 PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     # Cascaded PD (paper Eq. 12): outer position loop → velocity demand, inner velocity loop → τ/τ_max
     *_axes("WK_PD_KP", 0.0, 20.0, ("1/s", "1/s", "1/s"), "position P gain: velocity demand per unit error"),
     *_axes("WK_PD_KD", 0.0, 20.0, ("", "", ""), "position D gain: velocity demand per unit error rate"),
-    *_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/m", "s/rad"), "velocity P gain: normalised effort per unit velocity error"),
+    *_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/m", "s/rad"),
+           "velocity P gain: normalised effort per unit velocity error"),
     *_axes("WK_VEL_MAX", 0.01, 5.0, ("m/s", "m/s", "rad/s"), "velocity demand limit"),
     *_axes("WK_TAU_MAX", 0.1, 1000.0, ("N", "N", "N m"), "maximum control effort τ_max"),
     ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", integer=True),
@@ -92,7 +93,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
     ParamDef("FS_GCS_TIMEOUT", 0.1, 120.0, "s", "GCS heartbeat timeout"),
     ParamDef("FS_EKF_ACTION", 0, 4, "", "EKF failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
-    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m", "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
+    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m",
+             "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
     ParamDef("SYSID_THISMAV", 1, 255, "", "this vehicle's MAVLink system id", integer=True),
     ParamDef("SYSID_MYGCS", 1, 255, "", "the ground station's MAVLink system id", integer=True),
     ParamDef("WK_ORIGIN_LAT", -90.0, 90.0, "deg", "latitude of the local NED origin (GLOBAL_POSITION_INT)"),
@@ -139,6 +141,10 @@ class ParameterTable:
 
     def __getitem__(self, name: str) -> float:
         return self._values[name]
+
+    def get(self, name: str, default: float) -> float:
+        """The parameter's value, or ``default`` if the table has no such parameter."""
+        return self._values.get(name, default)
 
     def __contains__(self, name: str) -> bool:
         return name in self._values

@@ -316,7 +316,7 @@ def test_accelerations_are_time_derivatives(seas):
     # single linear component, too
     c = single(1.0, 0.8, DEPTH)
     for sd in (0.0, 10.0):
-        u1, w1, ud1, wd1 = particle_kinematics(c, 5.0, sd, 4.0)
+        _u1, _w1, ud1, wd1 = particle_kinematics(c, 5.0, sd, 4.0)
         u2, w2, _, _ = particle_kinematics(c, 5.0, sd, 4.0 + h)
         u0, w0, _, _ = particle_kinematics(c, 5.0, sd, 4.0 - h)
         assert (u2 - u0) / (2 * h) == pytest.approx(ud1, abs=1e-7)
@@ -329,7 +329,7 @@ def test_kinematics_broadcast_depth_with_x_and_t():
     s = np.array([0.0, 5.0, 10.0])
     u, w, ud, wd = particle_kinematics(c, 0.0, s, 0.0)
     ref = particle_kinematics(c, np.zeros(3), s, np.zeros(3))
-    for got, want in zip((u, w, ud, wd), ref):
+    for got, want in zip((u, w, ud, wd), ref, strict=False):
         assert got.shape == (3,)
         np.testing.assert_array_equal(got, want)
 
@@ -345,15 +345,15 @@ def _second_order_parts(A_scale):
     x = np.linspace(-30, 30, 5)[:, None]
     t = np.linspace(0, 20, 6)[None, :]
     s = 2.0
-    lin = (elevation(c1, x, t),) + particle_kinematics(c1, x, s, t)
-    non = (elevation(c2, x, t),) + particle_kinematics(c2, x, s, t)
+    lin = (elevation(c1, x, t), *particle_kinematics(c1, x, s, t))
+    non = (elevation(c2, x, t), *particle_kinematics(c2, x, s, t))
     return lin, non
 
 
 def test_second_order_terms_scale_as_amplitude_squared():
     lin_a, non_a = _second_order_parts(0.5)
     lin_b, non_b = _second_order_parts(0.05)
-    for la, na, lb, nb in zip(lin_a, non_a, lin_b, non_b):
+    for la, na, lb, nb in zip(lin_a, non_a, lin_b, non_b, strict=False):
         da = np.max(np.abs(na - la))
         db = np.max(np.abs(nb - lb))
         assert da > 0
@@ -439,7 +439,7 @@ def test_grid_equals_pointwise(second_order):
     t = np.sort(rng.uniform(0, 2000, 23))
     grid = particle_kinematics_grid(c, x, s, t)
     point = particle_kinematics(c, x[None, :], s[None, :], t[:, None])
-    for g_, p_ in zip(grid, point):
+    for g_, p_ in zip(grid, point, strict=False):
         assert g_.shape == (23, 17)
         np.testing.assert_allclose(g_, p_, rtol=0, atol=1e-12)
 
@@ -465,7 +465,8 @@ def test_measured_spectrum_csv_round_trip(tmp_path):
     s_f = 2 * np.pi * jonswap_spectrum(2 * np.pi * f, hs, tp, 3.3)
     path = tmp_path / "buoy.csv"
     path.write_text("frequency_hz,density_m2_per_hz\n"
-                    + "".join(f"{float(fi)!r},{float(si)!r}\n" for fi, si in zip(f, s_f)), encoding="utf-8")
+                    + "".join(f"{float(fi)!r},{float(si)!r}\n" for fi, si in zip(f, s_f, strict=True)),
+                    encoding="utf-8")
     m = MeasuredSpectrum.from_csv(path)
     np.testing.assert_allclose(m(2 * np.pi * f), jonswap_spectrum(2 * np.pi * f, hs, tp, 3.3), rtol=1e-12)
     # outside the measured band: zero

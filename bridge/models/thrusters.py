@@ -70,7 +70,7 @@ class T200Curve:
         pos, neg = f > 0.0, f < 0.0
         out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)
         out[neg] = np.interp(f[neg], self._rev_f, self._rev_pwm)
-        return out if out.ndim else float(out)
+        return out if out.ndim else float(out)  # type: ignore[return-value]  # a scalar in, a scalar out
 
     @classmethod
     def from_config(cls, cfg: dict) -> T200Curve:

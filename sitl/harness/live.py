@@ -11,8 +11,9 @@ from __future__ import annotations
 import os
 import threading
 
+from firmware_py.clocks import LockstepPacedClock
 from firmware_py.params import ParameterTable
-from firmware_py.scheduler import LockstepPacedClock, Task
+from firmware_py.scheduler import Task
 
 from .run import MissionSetup, build_mission
 from .spec import RunSpec
