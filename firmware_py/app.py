@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     from bridge.forecast import derive_seeds
     from .config import load_mission_config, load_vehicle_config
     from .firmware import Firmware
-    from .gcs import MavlinkLink, load_signing_key
+    from .mavlink import MavlinkLink, load_signing_key
     from .hal_json import JSONSITLHAL
     from .params import load_params
     from .physics.thrusters import T200Curve, ThrusterLayout

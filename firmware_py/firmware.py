@@ -30,6 +30,7 @@ from .physics.thrusters import T200Curve, ThrusterLayout
 from .physics.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
+from .telemetry_snapshot import TelemetrySnapshot
 
 __all__ = ["TickRecord", "TICK_COLUMNS", "tick_row", "PilotInput", "Firmware"]
 
@@ -245,6 +246,10 @@ class Firmware:
         if self.failsafe_gcs:
             self.failsafe_gcs = False
             self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
+
+    def telemetry_snapshot(self) -> TelemetrySnapshot:
+        """What a ground station is told, taken now (once per GCS tick, from the scheduler thread)."""
+        return TelemetrySnapshot.from_firmware(self)
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:

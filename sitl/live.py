@@ -30,7 +30,7 @@ class LiveSim:
                  seed: int | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
                  speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None,
                  realtime: bool = False):
-        from firmware_py.gcs import MavlinkLink
+        from firmware_py.mavlink import MavlinkLink
 
         self.setup: MissionSetup = build_mission(case, controller, snr_db, seed, params=params,
                                                  clock=LockstepPacedClock(speedup))

@@ -24,7 +24,7 @@ os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
-from firmware_py.gcs import CAPABILITIES, MavlinkLink, load_signing_key  # noqa: E402
+from firmware_py.mavlink import CAPABILITIES, MavlinkLink, load_signing_key  # noqa: E402
 from firmware_py.modes import MAV_RESULT, Mode  # noqa: E402
 from firmware_py.params import load_params  # noqa: E402
 from firmware_py.sensors import depth_to_pressure  # noqa: E402
