@@ -10,6 +10,9 @@ import pytest
 os.environ["MAVLINK20"] = "1"
 from pymavlink.dialects.v20 import ardupilotmega as mavlink  # noqa: E402
 
+TYPES = {"REAL32": mavlink.MAV_PARAM_TYPE_REAL32, "INT8": mavlink.MAV_PARAM_TYPE_INT8,
+         "INT16": mavlink.MAV_PARAM_TYPE_INT16, "INT32": mavlink.MAV_PARAM_TYPE_INT32}
+
 # fixtures, one live vehicle per module
 from mavlink_gcs import _restore, v  # noqa: E402,F401
 
@@ -25,7 +28,7 @@ def test_parameter_protocol(v):
     while len(got) < len(params) and time.monotonic() < end:
         m = gs.wait_type("PARAM_VALUE", timeout=1.0)
         if m is not None:
-            assert m.param_count == len(params) and m.param_type == mavlink.MAV_PARAM_TYPE_REAL32
+            assert m.param_count == len(params) and m.param_type == TYPES[params.definition(m.param_id).ptype]
             got[m.param_index] = (m.param_id, m.param_value)
     assert sorted(got) == list(range(len(params)))
     assert [got[i][0] for i in range(len(params))] == params.names()
@@ -44,10 +47,36 @@ def test_parameter_protocol(v):
         since = gs.mark()
         assert gs.set_param("WK_FF_GAIN", bad).param_value == pytest.approx(0.5)
         assert gs.wait_type("STATUSTEXT", lambda m: m.text.startswith("WK_FF_GAIN not set"), 2, since) is not None
-    assert gs.set_param("FS_GCS_ENABLE", 1.5).param_value == params["FS_GCS_ENABLE"] == 2
+    assert gs.set_param("FS_GCS_ENABLE", 1.5).param_value == params["FS_GCS_ENABLE"] == 1   # AP_Param truncates
     assert params["WK_FF_GAIN"] == 0.5
     # Unknown names are ignored (nothing comes back) and counted
     before = v.link.counters["rx_ignored"]
     assert gs.set_param("NO_SUCH_PARAM", 1.0, timeout=1.0) is None
     assert gs.param("NO_SUCH_PARAM", timeout=0.5) is None
     assert v.link.counters["rx_ignored"] == before + 2
+
+
+def test_parameter_types_are_ardusubs_and_set_converts_like_ap_param(v):
+    """Integer parameters travel as INT8/INT16 (ArduSub's AP_Int8/AP_Int16), floats as REAL32; PARAM_SET of a
+    fraction to an integer parameter is truncated after adding 0.01 towards its sign (AP_Param::set_float)."""
+    gs, params = v.gs, v.fw.params
+    expected = {"SYSID_THISMAV": mavlink.MAV_PARAM_TYPE_INT16, "SYSID_MYGCS": mavlink.MAV_PARAM_TYPE_INT16,
+                "SR0_EXTRA1": mavlink.MAV_PARAM_TYPE_INT16, "FS_GCS_ENABLE": mavlink.MAV_PARAM_TYPE_INT8,
+                "FS_EKF_ACTION": mavlink.MAV_PARAM_TYPE_INT8, "WK_FF_ENABLE": mavlink.MAV_PARAM_TYPE_INT8,
+                "WK_FF_GAIN": mavlink.MAV_PARAM_TYPE_REAL32, "FS_GCS_TIMEOUT": mavlink.MAV_PARAM_TYPE_REAL32}
+    for name, mav_type in expected.items():
+        m = gs.param(name)
+        assert m is not None and m.param_type == mav_type, name
+        assert m.param_value == params[name]
+    # The sender's type is ignored; the value is converted to the parameter's
+    for sent, stored in ((3.5, 3), (2.999, 3), (4.0, 4), (0.2, 0)):
+        m = gs.set_param("FS_GCS_ENABLE", sent)
+        assert (m.param_value, m.param_type) == (stored, mavlink.MAV_PARAM_TYPE_INT8) and params["FS_GCS_ENABLE"] == stored
+    assert gs.set_param("SR0_EXTRA3", 4.7).param_value == 4 and params["SR0_EXTRA3"] == 4.0
+    # Beyond the type (clamped to 127) and beyond the range, or NaN: refused, the value in force re-sent
+    for bad in (1e9, -7.0, math.nan):
+        since = gs.mark()
+        assert gs.set_param("FS_GCS_ENABLE", bad).param_value == 0
+        assert gs.wait_type("STATUSTEXT", lambda m: m.text.startswith("FS_GCS_ENABLE not set"), 2, since) is not None
+    # Floats keep their fraction
+    assert gs.set_param("WK_FF_GAIN", 0.35).param_value == pytest.approx(0.35) and params["WK_FF_GAIN"] == 0.35
