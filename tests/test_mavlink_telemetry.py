@@ -166,3 +166,20 @@ def test_telemetry_packs_whatever_the_estimate_holds():
                     "SERVO_OUTPUT_RAW", "NAMED_VALUE_FLOAT", "SYS_STATUS"} <= types
     finally:
         link.stop()
+
+
+def test_gps_raw_int_without_a_fix_in_extended_status(v):
+    """GPS_RAW_INT streams with SYS_STATUS (SR0_EXT_STAT, 2 Hz) with fix_type 0 — no GPS, as ArduSub under water."""
+    msgs = [m for m in v.gs.collect(2.6) if m.get_type() == "GPS_RAW_INT"]
+    assert 4 <= len(msgs) <= 7
+    g = msgs[-1]
+    assert (g.fix_type, g.lat, g.lon, g.satellites_visible, g.eph, g.epv) == (
+        mavlink.GPS_FIX_TYPE_NO_GPS, 0, 0, 0, 65535, 65535)
+    # The group's rate paces it; and it can be asked for
+    gs = v.gs
+    gs.send(mavlink.MAVLink_request_data_stream_message(1, 1, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS, 0, 0))
+    time.sleep(0.3)
+    gs.drain()
+    assert not [m for m in gs.collect(1.0) if m.get_type() == "GPS_RAW_INT"]
+    assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT).result == MAV_RESULT.ACCEPTED
+    assert gs.wait_type("GPS_RAW_INT", lambda m: m.fix_type == 0, timeout=2.0) is not None

@@ -50,7 +50,7 @@ HEARTBEAT_INTERVAL_NS = 1_000_000_000
 
 STREAM_GROUPS: dict[str, tuple[int, ...]] = {
     "SR0_RAW_SENS": (ID["SCALED_PRESSURE2"],),
-    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["NAMED_VALUE_FLOAT"]),
+    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["GPS_RAW_INT"], ID["NAMED_VALUE_FLOAT"]),
     "SR0_RC_CHAN": (ID["SERVO_OUTPUT_RAW"], ID["RC_CHANNELS"]),
     "SR0_POSITION": (ID["GLOBAL_POSITION_INT"], ID["LOCAL_POSITION_NED"]),
     "SR0_EXTRA1": (ID["ATTITUDE"],),
@@ -203,6 +203,15 @@ def scaled_pressure2(snap: TelemetrySnapshot, link: LinkState) -> list:
                                                      0.0, WATER_TEMPERATURE_CDEG)]
 
 
+def gps_raw_int(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """GPS_RAW_INT as ArduPilot sends it without a GPS: fix_type 0 (NO_GPS), no position, DOPs unknown.
+
+    A submarine has no GPS under water; clients that wait for this message (dronekit) get it all the same.
+    """
+    return [mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_GPS, 0, 0, 0, UINT16_MAX, UINT16_MAX,
+                                                0, 0, 0)]
+
+
 def servo_output_raw(snap: TelemetrySnapshot, link: LinkState) -> list:
     """SERVO_OUTPUT_RAW: the eight thruster PWMs (µs) of the last tick."""
     if not snap.has_tick:
@@ -275,6 +284,7 @@ BUILDERS: dict[int, Builder] = {
     ID["NAMED_VALUE_FLOAT"]: named_values,
     ID["SCALED_PRESSURE2"]: scaled_pressure2,
     ID["SERVO_OUTPUT_RAW"]: servo_output_raw,
+    ID["GPS_RAW_INT"]: gps_raw_int,
     ID["RC_CHANNELS"]: rc_channels,
     ID["GLOBAL_POSITION_INT"]: global_position_int,
     ID["LOCAL_POSITION_NED"]: local_position_ned,
