@@ -120,7 +120,7 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_ORIGIN_LON", -180.0, 180.0, "deg", "longitude of the local NED origin"),
     # Telemetry stream rates (ArduPilot's SR0_*), Hz
     ParamDef("SR0_RAW_SENS", 0, 50, "Hz", "SCALED_PRESSURE, SCALED_PRESSURE2", ptype="INT16"),
-    ParamDef("SR0_EXT_STAT", 0, 50, "Hz", "SYS_STATUS, GPS_RAW_INT, NAMED_VALUE_FLOAT", ptype="INT16"),
+    ParamDef("SR0_EXT_STAT", 0, 50, "Hz", "SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAMED_VALUE_FLOAT", ptype="INT16"),
     ParamDef("SR0_RC_CHAN", 0, 50, "Hz", "SERVO_OUTPUT_RAW, RC_CHANNELS", ptype="INT16"),
     ParamDef("SR0_POSITION", 0, 50, "Hz", "GLOBAL_POSITION_INT, LOCAL_POSITION_NED", ptype="INT16"),
     ParamDef("SR0_EXTRA1", 0, 50, "Hz", "ATTITUDE", ptype="INT16"),

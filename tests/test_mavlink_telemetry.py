@@ -120,7 +120,8 @@ def test_request_message_capabilities_and_timesync(v):
     assert av.capabilities == CAPABILITIES
     assert av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2
     assert av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
-    assert not av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    assert av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT          # missions: ArduSub's protocol
+    assert not av.capabilities & mavlink.MAV_PROTOCOL_CAPABILITY_FTP                # FTP is NAKed, not served
     assert gs.command(mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == MAV_RESULT.ACCEPTED
     assert gs.wait_type("AUTOPILOT_VERSION") is not None
     # Any streamed message, once, on request — also while its stream is off

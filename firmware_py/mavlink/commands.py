@@ -55,9 +55,6 @@ class Dispatcher:
             ID["COMMAND_INT"]: self.on_command_int,
             ID["SET_POSITION_TARGET_LOCAL_NED"]: self.on_position_target,
             ID["TIMESYNC"]: self.on_timesync,
-            ID["MISSION_REQUEST_LIST"]: self.on_mission_request_list,
-            ID["MISSION_COUNT"]: self.on_mission_upload,
-            ID["MISSION_CLEAR_ALL"]: self.on_mission_clear_all,
             ID["AUTOPILOT_VERSION_REQUEST"]: self.on_autopilot_version_request,
         }
         """Message id → handler ``(endpoint, msg)``."""
@@ -174,18 +171,6 @@ class Dispatcher:
         if msg.tc1 != 0:
             return
         self.link.queue(mavlink.MAVLink_timesync_message(max(1, self.link.state.now_ns), msg.ts1), ep)
-
-    def on_mission_request_list(self, ep: int, msg) -> None:
-        self.link.queue(mavlink.MAVLink_mission_count_message(msg.get_srcSystem(), msg.get_srcComponent(), 0,
-                                                              msg.mission_type), ep)
-
-    def on_mission_upload(self, ep: int, msg) -> None:
-        self.link.queue(mavlink.MAVLink_mission_ack_message(msg.get_srcSystem(), msg.get_srcComponent(),
-                                                            mavlink.MAV_MISSION_UNSUPPORTED, msg.mission_type), ep)
-
-    def on_mission_clear_all(self, ep: int, msg) -> None:
-        self.link.queue(mavlink.MAVLink_mission_ack_message(msg.get_srcSystem(), msg.get_srcComponent(),
-                                                            mavlink.MAV_MISSION_ACCEPTED, msg.mission_type), ep)
 
     def on_autopilot_version_request(self, ep: int, msg) -> None:
         for m in self.link.build(ID["AUTOPILOT_VERSION"]):

@@ -33,6 +33,7 @@ from typing import Callable
 from ..modes import MAV_SEVERITY
 from ..telemetry_snapshot import TelemetrySnapshot
 from .commands import Dispatcher
+from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
 from .transports import Transport, make_transport
@@ -105,7 +106,9 @@ class MavlinkLink:
         self.builders: dict[int, Builder] = dict(BUILDERS)
         self.dispatcher = Dispatcher(self)
         self.param_protocol = ParamProtocol(self)
-        self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages}
+        self.missions = MissionProtocol(self)
+        self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages,
+                                               **self.missions.messages}
         self._open_endpoints()
 
     def _open_endpoints(self) -> None:
@@ -249,6 +252,8 @@ class MavlinkLink:
                 self._send_events()
         self._send_events()
         self.param_protocol.send_batches()
+        self.missions.update()
+        self.state.mission_seq, self.state.mission_total = self.missions.current, self.missions.count
         self._send_streams(slot_ns)
         if self._outbox:
             self._wake()

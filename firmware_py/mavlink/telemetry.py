@@ -26,7 +26,8 @@ __all__ = ["LinkState", "Builder", "BUILDERS", "STREAM_GROUPS", "DATA_STREAM_PAR
 
 CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED)
+                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
 """What AUTOPILOT_VERSION claims: only what this link implements."""
 
 BASE_MODE_ALWAYS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
@@ -50,7 +51,7 @@ HEARTBEAT_INTERVAL_NS = 1_000_000_000
 
 STREAM_GROUPS: dict[str, tuple[int, ...]] = {
     "SR0_RAW_SENS": (ID["SCALED_PRESSURE2"],),
-    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["GPS_RAW_INT"], ID["NAMED_VALUE_FLOAT"]),
+    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["MISSION_CURRENT"], ID["GPS_RAW_INT"], ID["NAMED_VALUE_FLOAT"]),
     "SR0_RC_CHAN": (ID["SERVO_OUTPUT_RAW"], ID["RC_CHANNELS"]),
     "SR0_POSITION": (ID["GLOBAL_POSITION_INT"], ID["LOCAL_POSITION_NED"]),
     "SR0_EXTRA1": (ID["ATTITUDE"],),
@@ -91,6 +92,8 @@ class LinkState:
         The firmware scheduler's statistics (load, overruns, control-task timing).
     rc : list of int
         RC channels 1–8 as the pilot last set them (µs), ArduSub's channel order.
+    mission_seq, mission_total : int
+        The current mission item and the number of items (home included).
     """
 
     now_ns: int = 0
@@ -98,6 +101,8 @@ class LinkState:
     counters: Mapping[str, int] = field(default_factory=dict)
     sched_stats: dict | None = None
     rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8)
+    mission_seq: int = 0
+    mission_total: int = 1
 
 
 Builder = Callable[[TelemetrySnapshot, LinkState], list]
@@ -212,6 +217,12 @@ def gps_raw_int(snap: TelemetrySnapshot, link: LinkState) -> list:
                                                 0, 0, 0)]
 
 
+def mission_current(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """MISSION_CURRENT: the current item and the mission's size (home included)."""
+    return [mavlink.MAVLink_mission_current_message(clip_int(link.mission_seq, 0, UINT16_MAX),
+                                                    clip_int(link.mission_total, 0, UINT16_MAX))]
+
+
 def servo_output_raw(snap: TelemetrySnapshot, link: LinkState) -> list:
     """SERVO_OUTPUT_RAW: the eight thruster PWMs (µs) of the last tick."""
     if not snap.has_tick:
@@ -285,6 +296,7 @@ BUILDERS: dict[int, Builder] = {
     ID["SCALED_PRESSURE2"]: scaled_pressure2,
     ID["SERVO_OUTPUT_RAW"]: servo_output_raw,
     ID["GPS_RAW_INT"]: gps_raw_int,
+    ID["MISSION_CURRENT"]: mission_current,
     ID["RC_CHANNELS"]: rc_channels,
     ID["GLOBAL_POSITION_INT"]: global_position_int,
     ID["LOCAL_POSITION_NED"]: local_position_ned,

@@ -35,7 +35,7 @@ ID: dict[str, int] = {name: getattr(mavlink, f"MAVLINK_MSG_ID_{name}") for name 
     "SET_MODE", "PARAM_REQUEST_READ", "PARAM_REQUEST_LIST", "PARAM_SET", "REQUEST_DATA_STREAM", "MANUAL_CONTROL",
     "RC_CHANNELS_OVERRIDE", "COMMAND_LONG", "COMMAND_INT", "SET_POSITION_TARGET_LOCAL_NED", "TIMESYNC",
     "MISSION_REQUEST_LIST", "MISSION_COUNT", "MISSION_CLEAR_ALL", "AUTOPILOT_VERSION_REQUEST", "RADIO_STATUS",
-    "RADIO", "GPS_RAW_INT")}
+    "RADIO", "GPS_RAW_INT", "MISSION_CURRENT")}
 """Message ids by name, for the messages this link sends or handles."""
 
 
