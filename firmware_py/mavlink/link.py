@@ -33,6 +33,7 @@ from typing import Callable
 from ..modes import MAV_SEVERITY
 from ..telemetry_snapshot import TelemetrySnapshot
 from .commands import Dispatcher
+from .ftp import FtpResponder
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
@@ -107,8 +108,9 @@ class MavlinkLink:
         self.dispatcher = Dispatcher(self)
         self.param_protocol = ParamProtocol(self)
         self.missions = MissionProtocol(self)
+        self.ftp = FtpResponder(self)
         self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages,
-                                               **self.missions.messages}
+                                               **self.missions.messages, **self.ftp.messages}
         self._open_endpoints()
 
     def _open_endpoints(self) -> None:
