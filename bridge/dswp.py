@@ -1,6 +1,6 @@
 """Deterministic sea wave prediction (DSWP) from an up-wave buoy record.
 
-The authors' later work (REFERENCE §1 last bullet, §7 last bullet) predicts the
+The authors' later work (docs/reference.md §1 last bullet, §7 last bullet) predicts the
 waves at the vehicle from a probe 50 m up-wave: FFT of the probe record →
 regular components → propagate them down-wave with the dispersion relation.
 :func:`predict_from_buoy` does that and returns a :class:`~bridge.forecast.Forecast`

@@ -1,6 +1,6 @@
 """Zenoh sessions for the forecast link, configured from ``configs/network.yaml``.
 
-Loopback by default, multicast scouting off (NOTES.md: zenoh's pitfalls measured
+Loopback by default, multicast scouting off (docs/platform-notes.md: zenoh's pitfalls measured
 here). The forecast service *listens*; vehicles and the plant *connect* to it,
 so with gossip scouting the peers find each other through it. Always close a
 session (``with open_session(...) as s:``): a Python-callback handler keeps the

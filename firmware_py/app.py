@@ -6,9 +6,9 @@ Start-up, in order: parameters (``configs/firmware/params.yaml`` plus
 ``--set NAME=VALUE``), the HAL (waits for the plant's first state), the
 MAVLink link, the forecast subscriber (zenoh, unless ``--no-forecast``); then
 the first control tick (the estimator initialises), a garbage collection and
-``gc.freeze()`` (NOTES.md: a full collection would cost more than a tick), and
+``gc.freeze()`` (docs/platform-notes.md: a full collection would cost more than a tick), and
 the 20 Hz loop until SIGINT/SIGTERM, under SCHED_FIFO where the OS permits it
-(paced runs; NOTES.md: start error p99 ≈ 15 µs even with both cores loaded).
+(paced runs; docs/platform-notes.md: start error p99 ≈ 15 µs even with both cores loaded).
 
 ``--hold-until-armed`` keeps simulated time still after the first tick until a
 ground station has armed the vehicle, so a scripted start (the launcher's) is
@@ -104,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
 
     from .clocks import LockstepPacedClock
     from .firmware import Firmware
-    from .gcs import MavlinkLink, load_signing_key
     from .hal_json import JSONSITLHAL
+    from .mavlink import MavlinkLink, load_signing_key
     from .params import load_params
     from .scheduler import Task
 

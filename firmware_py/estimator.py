@@ -35,7 +35,10 @@ CHANNELS = ("position", "depth", "pitch", "pitch_rate")
 
 
 class _ModelEKF(ExtendedKalmanFilter):
-    """filterpy EKF whose prediction integrates the nonlinear vehicle model (NOTES.md: override predict_x)."""
+    """filterpy EKF whose prediction integrates the nonlinear vehicle model.
+
+    (filterpy: override ``predict_x`` and set ``F``; see docs/platform-notes.md.)
+    """
 
     def __init__(self, vehicle: VehicleParams, h: float):
         super().__init__(dim_x=6, dim_z=4)

@@ -31,6 +31,7 @@ from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mo
 from .params import ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
+from .telemetry_snapshot import TelemetrySnapshot
 
 __all__ = ["TICK_COLUMNS", "Firmware", "PilotInput", "TickRecord", "tick_row"]
 
@@ -246,6 +247,10 @@ class Firmware:
         if self.failsafe_gcs:
             self.failsafe_gcs = False
             self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
+
+    def telemetry_snapshot(self) -> TelemetrySnapshot:
+        """What a ground station is told, taken now (once per GCS tick, from the scheduler thread)."""
+        return TelemetrySnapshot.from_firmware(self)
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:

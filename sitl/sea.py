@@ -5,7 +5,7 @@ drawn from a spectrum with seeded random phases; its kinematics come from the
 shared module :mod:`bridge.models.waves` (paper Eqs. 5, 9, 10).
 
 Spectra are one-sided, in m²·s/rad over ω in rad/s. The JONSWAP form is the
-physically consistent one of REFERENCE §1 (Γ with its minus sign, scaled to the
+physically consistent one of docs/reference.md §1 (Γ with its minus sign, scaled to the
 stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 (Hz) and density (m²/Hz).
 """
@@ -122,7 +122,7 @@ def discretise_spectrum(spectrum: Callable[[np.ndarray], np.ndarray], omega_lo: 
                         n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Split [ω_lo, ω_hi] into n equal bins and draw one frequency in each.
 
-    Returns (ω_i, A_i) with A_i = √(2 S(ω_i) Δω) (REFERENCE §2). Each frequency
+    Returns (ω_i, A_i) with A_i = √(2 S(ω_i) Δω) (docs/reference.md §2). Each frequency
     is drawn uniformly from its whole bin. Equal spacing would repeat exactly
     every 2π/Δω s; jitter over only part of the bin still leaves a partial
     repeat there (expected correlation 2/π for the middle half), while jitter

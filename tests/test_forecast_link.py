@@ -124,7 +124,7 @@ def test_forecast_reaches_the_handoff_and_garbage_does_not(sessions, forecast):
     said = []
     link = ZenohForecastLink(vehicle, "moray", handoff, say=lambda sev, text: said.append(text))
     pub = service.declare_publisher(forecast_key("moray"))
-    time.sleep(0.2)                       # declarations propagate asynchronously (NOTES.md)
+    time.sleep(0.2)                       # declarations propagate asynchronously (docs/platform-notes.md)
     bad = [b"garbage", b"", encode_forecast(forecast)[:-3], bytes(MAX_PAYLOAD + 10)]
     for payload in bad:
         pub.put(payload)

@@ -1,7 +1,7 @@
 """Blue Robotics T200 thrusters and the BlueROV2 Heavy thruster layout.
 
 * :class:`T200Curve` — PWM (µs) ↔ steady-state thrust (N) at 16 V through the
-  published samples (REFERENCE §5): monotone cubic (PCHIP) interpolation, flat
+  published samples (docs/reference.md §5): monotone cubic (PCHIP) interpolation, flat
   zero in the dead band, asymmetric forward/reverse limits.
 * :class:`ThrusterLayout` — positions and positive-thrust directions in the body
   FRD frame; the allocation matrix B (τ = B f) is derived from them as

@@ -1,6 +1,6 @@
 """Wave kinematics of a sum of regular components: linear + 2nd-order Stokes, finite depth.
 
-One module serves both sides (DESIGN "a physics formula lives in one place"):
+One module serves both sides (docs/architecture.md):
 the SITL sea evaluates it with the true components, the firmware's feed-forward
 with the forecast's components.
 
@@ -8,7 +8,7 @@ Conventions
 -----------
 * Waves travel in +x (earth frame, NED north). Phase θ_i = k_i x − ω_i t + ε_i.
 * Vertical position is given as *depth* s ≥ 0 below the still surface (NED z);
-  the elevation coordinate of REFERENCE §2 is z' = −s.
+  the elevation coordinate of docs/reference.md §2 is z' = −s.
 * Velocities and accelerations are returned in NED: u along +x, w positive *down*.
 * Accelerations are local (∂/∂t at a fixed point), as used in the Morison-type
   load of the paper's Eq. 11.

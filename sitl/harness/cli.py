@@ -172,7 +172,7 @@ def cmd_live(args) -> int:
 
     key = None
     if args.signing_key:
-        from firmware_py.gcs import load_signing_key
+        from firmware_py.mavlink import load_signing_key
         key = load_signing_key(args.signing_key)
     sim = LiveSim(run_spec(args),
                   mavlink=args.mavlink or ["udpout:127.0.0.1:14550"], speedup=args.speedup, signing_key=key)
