@@ -188,3 +188,51 @@ def test_gcs_failsafe_disarms_after_silence(v, fast_heartbeat):
     gs.heartbeats(True)
     assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe cleared", timeout=4.0, since=since) is not None
     assert gs.heartbeat(lambda m: m.system_status == mavlink.MAV_STATE_STANDBY) is not None
+
+
+def test_home_position_origin_and_do_set_home(v):
+    gs, p = v.gs, v.fw.params
+    lat0, lon0 = p["WK_ORIGIN_LAT"], p["WK_ORIGIN_LON"]
+    try:
+        # Asked for by id, or with GET_HOME_POSITION (both messages follow its ACK)
+        assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_HOME_POSITION).result == 0
+        home = gs.wait_type("HOME_POSITION", timeout=3.0)
+        assert (home.latitude, home.longitude, home.altitude) == (round(lat0 * 1e7), round(lon0 * 1e7), 0)
+        assert (home.x, home.y, home.z) == (0.0, 0.0, 0.0) and list(home.q) == [1.0, 0.0, 0.0, 0.0]
+        assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN).result == 0
+        origin = gs.wait_type("GPS_GLOBAL_ORIGIN", timeout=3.0)
+        assert (origin.latitude, origin.longitude, origin.altitude) == (round(lat0 * 1e7), round(lon0 * 1e7), 0)
+        since = gs.mark()
+        assert gs.command(mavlink.MAV_CMD_GET_HOME_POSITION).result == MAV_RESULT.ACCEPTED
+        assert gs.wait_type("HOME_POSITION", timeout=3.0, since=since) is not None
+        assert gs.wait_type("GPS_GLOBAL_ORIGIN", timeout=3.0, since=since) is not None
+        # DO_SET_HOME with a position (p1 0): home moves, the origin does not
+        since = gs.mark()
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat0 + 1e-4, lon0, -2.0).result == 0
+        home = gs.wait_type("HOME_POSITION", timeout=3.0, since=since)
+        assert home.latitude == pytest.approx((lat0 + 1e-4) * 1e7, abs=20) and home.altitude == -2000   # float32 p5
+        assert home.x == pytest.approx(math.radians(1e-4) * 6378137.0, abs=0.3) and home.z == pytest.approx(2.0)
+        gs.send(mavlink.MAVLink_mission_request_int_message(1, 1, 0, 0))          # mission item 0 is home
+        assert gs.wait_type("MISSION_ITEM_INT", timeout=3.0).x == home.latitude
+        # COMMAND_INT carries degE7; p1 1: the current position (north of the origin by the estimate)
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, round(lat0 * 1e7), round(lon0 * 1e7), 0,
+                          use_int=True).result == 0
+        since = gs.mark()
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 1).result == MAV_RESULT.ACCEPTED
+        home = gs.wait_type("HOME_POSITION", timeout=3.0, since=since)
+        assert home.x == pytest.approx(float(v.fw.last.x_hat[0]), abs=0.5)
+        assert home.z == pytest.approx(float(v.fw.last.x_hat[1]), abs=0.5)
+        # Refused as ArduPilot refuses: p1 neither 0 nor 1, a latitude beyond 90°, NaN
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 2, 0, 0, 0, lat0, lon0, 0).result == MAV_RESULT.FAILED
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 95.0, lon0, 0).result == MAV_RESULT.FAILED
+        assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, math.nan, lon0, 0).result == MAV_RESULT.FAILED
+        # Streamable at a rate of one's choosing
+        assert gs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION,
+                          200_000).result == 0
+        assert len([m for m in gs.collect(1.2) if m.get_type() == "HOME_POSITION"]) >= 4
+        assert gs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION, 0).result == 0
+        gs.drain()
+        time.sleep(0.3)
+        assert not [m for m in gs.collect(0.8) if m.get_type() == "HOME_POSITION"]
+    finally:
+        v.link.state.home = None

@@ -9,12 +9,13 @@ first, then whatever the command asked for (``link.after``).
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
 from .param_protocol import BANNER
-from .telemetry import DATA_STREAM_PARAMS, STREAM_GROUPS, STREAMED
+from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED
 from .wire import ID, INT16_MAX, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
 
 if TYPE_CHECKING:
@@ -69,6 +70,8 @@ class Dispatcher:
             mavlink.MAV_CMD_NAV_LOITER_UNLIM: lambda *_: self.fw.request_mode(Mode.POSHOLD),
             mavlink.MAV_CMD_NAV_LAND: lambda *_: self.fw.request_mode(Mode.SURFACE),
             mavlink.MAV_CMD_DO_SEND_BANNER: self.cmd_banner,
+            mavlink.MAV_CMD_GET_HOME_POSITION: self.cmd_get_home_position,
+            mavlink.MAV_CMD_DO_SET_HOME: self.cmd_do_set_home,
         }
         """MAV_CMD → handler ``(endpoint, msg, params) -> MAV_RESULT``."""
 
@@ -256,7 +259,7 @@ class Dispatcher:
         if not is_integer_value(p[0]):
             return MAV_RESULT.FAILED
         mid = int(p[0])
-        if mid in STREAMED:
+        if mid in STREAMED or (mid in self.link.builders and mid != ID["AUTOPILOT_VERSION"]):
             interval = self.link.stream_interval(mid)
             us = -1 if interval is None else clip_int(interval / 1000, 1, 2**31 - 1)
         else:
@@ -287,4 +290,31 @@ class Dispatcher:
     def cmd_banner(self, ep: int, msg, p: Params7) -> int:
         """MAV_CMD_DO_SEND_BANNER: the firmware's name and version in a STATUSTEXT."""
         self.link.statustext(MAV_SEVERITY.INFO, BANNER, ep)
+        return MAV_RESULT.ACCEPTED
+
+    def cmd_get_home_position(self, ep: int, msg, p: Params7) -> int:
+        """MAV_CMD_GET_HOME_POSITION: HOME_POSITION and GPS_GLOBAL_ORIGIN after the ACK (as ArduPilot)."""
+        self.link.after.extend(self.link.build(ID["HOME_POSITION"]) + self.link.build(ID["GPS_GLOBAL_ORIGIN"]))
+        return MAV_RESULT.ACCEPTED
+
+    def cmd_do_set_home(self, ep: int, msg, p: Params7) -> int:
+        """MAV_CMD_DO_SET_HOME: p1 = 1 (or lat = lon = 0): the current position; p1 = 0: p5 lat, p6 lon, p7 alt.
+
+        As ArduPilot: FAILED for another p1, an invalid latitude/longitude, or no position estimate
+        yet; HOME_POSITION follows the ACK. COMMAND_INT carries lat/lon in degE7.
+        """
+        scale = 1e-7 if msg.get_type() == "COMMAND_INT" else 1.0
+        if not finite(*p[:7]):
+            return MAV_RESULT.FAILED
+        lat, lon, alt = p[4] * scale, p[5] * scale, p[6]
+        if p[0] == 1.0 or (lat == 0.0 and lon == 0.0):
+            snap = self.link.snapshot
+            if snap is None or not snap.has_tick or not snap.ekf_converged or not finite(*snap.x_hat[:2]):
+                return MAV_RESULT.FAILED
+            lat = snap.origin_lat + math.degrees(snap.x_hat[0] / EARTH_RADIUS_M)
+            lon, alt = snap.origin_lon, -snap.x_hat[1]
+        elif p[0] != 0.0 or not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            return MAV_RESULT.FAILED
+        self.link.state.home = (float(lat), float(lon), float(alt))
+        self.link.after.extend(self.link.build(ID["HOME_POSITION"]))
         return MAV_RESULT.ACCEPTED

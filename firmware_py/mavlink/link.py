@@ -225,9 +225,11 @@ class MavlinkLink:
         ov = self._overrides.get(mid)
         if ov is not None:
             return None if ov < 0 else ov
-        group = MSG_GROUP.get(mid)
-        if group is None:
+        if mid == ID["HEARTBEAT"]:
             return HEARTBEAT_INTERVAL_NS
+        group = MSG_GROUP.get(mid)
+        if group is None:                  # sent on request, or at a SET_MESSAGE_INTERVAL rate
+            return None
         rate = self.fw.params[group]
         return int(1e9 / rate) if rate > 0 else None
 
@@ -273,7 +275,8 @@ class MavlinkLink:
             self.statustext(severity, text)
 
     def _send_streams(self, now: int) -> None:
-        for mid in STREAMED:
+        extra = tuple(mid for mid in self._overrides if mid not in MSG_GROUP and mid != ID["HEARTBEAT"])
+        for mid in STREAMED + extra:
             interval = self.stream_interval(mid)
             if interval != self._interval.get(mid):
                 self._interval[mid] = interval

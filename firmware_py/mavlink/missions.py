@@ -130,10 +130,11 @@ class MissionProtocol:
         return 1 + len(self.items)
 
     def home(self) -> MissionItem:
-        """Item 0: home, the local origin (WK_ORIGIN_LAT/LON) at the sea surface (alt 0 m)."""
+        """Item 0: home — the local origin (WK_ORIGIN_LAT/LON) at the sea surface, or where DO_SET_HOME put it."""
         p = self.link.fw.params
+        lat, lon, alt = self.link.state.home or (p["WK_ORIGIN_LAT"], p["WK_ORIGIN_LON"], 0.0)
         return MissionItem(M.MAV_FRAME_GLOBAL, M.MAV_CMD_NAV_WAYPOINT, 1, (0.0, 0.0, 0.0, 0.0),
-                           int(round(p["WK_ORIGIN_LAT"] * 1e7)), int(round(p["WK_ORIGIN_LON"] * 1e7)), 0.0)
+                           int(round(lat * 1e7)), int(round(lon * 1e7)), float(alt))
 
     def item(self, seq: int) -> MissionItem | None:
         if seq == 0:

@@ -105,6 +105,9 @@ class LinkState:
         RC channels 1–8 as the pilot last set them (µs), ArduSub's channel order.
     mission_seq, mission_total : int
         The current mission item and the number of items (home included).
+    home : tuple of float or None
+        Home (latitude deg, longitude deg, altitude m) as MAV_CMD_DO_SET_HOME set it; None: the
+        local origin (WK_ORIGIN_LAT/LON) at the sea surface.
     """
 
     now_ns: int = 0
@@ -114,6 +117,7 @@ class LinkState:
     rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8)
     mission_seq: int = 0
     mission_total: int = 1
+    home: tuple[float, float, float] | None = None
 
 
 Builder = Callable[[TelemetrySnapshot, LinkState], list]
@@ -229,6 +233,29 @@ def gps_raw_int(snap: TelemetrySnapshot, link: LinkState) -> list:
                                                 0, 0, 0)]
 
 
+def home_location(snap: TelemetrySnapshot, link: LinkState) -> tuple[float, float, float]:
+    """Home: (latitude deg, longitude deg, altitude m, the sea surface 0)."""
+    return link.home if link.home is not None else (snap.origin_lat, snap.origin_lon, 0.0)
+
+
+def home_position(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """HOME_POSITION: home (degE7, mm) and its NED offset from the origin (m); q identity, no approach."""
+    lat, lon, alt = home_location(snap, link)
+    north = math.radians(lat - snap.origin_lat) * EARTH_RADIUS_M
+    east = math.radians(lon - snap.origin_lon) * EARTH_RADIUS_M * math.cos(math.radians(snap.origin_lat))
+    return [mavlink.MAVLink_home_position_message(
+        clip_int(lat * 1e7, -900000000, 900000000), clip_int(lon * 1e7, -1800000000, 1800000000),
+        clip_int(alt * 1000.0, -2**31, 2**31 - 1), north, east, -alt, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
+        clip_int((snap.t or 0.0) * 1e6, 0, 2**63))]
+
+
+def gps_global_origin(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """GPS_GLOBAL_ORIGIN: the local NED origin, WK_ORIGIN_LAT/LON at the sea surface (degE7, mm)."""
+    return [mavlink.MAVLink_gps_global_origin_message(
+        clip_int(snap.origin_lat * 1e7, -900000000, 900000000),
+        clip_int(snap.origin_lon * 1e7, -1800000000, 1800000000), 0, clip_int((snap.t or 0.0) * 1e6, 0, 2**63))]
+
+
 def mission_current(snap: TelemetrySnapshot, link: LinkState) -> list:
     """MISSION_CURRENT: the current item and the mission's size (home included)."""
     return [mavlink.MAVLink_mission_current_message(clip_int(link.mission_seq, 0, UINT16_MAX),
@@ -310,6 +337,8 @@ BUILDERS: dict[int, Builder] = {
     ID["SERVO_OUTPUT_RAW"]: servo_output_raw,
     ID["GPS_RAW_INT"]: gps_raw_int,
     ID["MISSION_CURRENT"]: mission_current,
+    ID["HOME_POSITION"]: home_position,
+    ID["GPS_GLOBAL_ORIGIN"]: gps_global_origin,
     ID["RC_CHANNELS"]: rc_channels,
     ID["GLOBAL_POSITION_INT"]: global_position_int,
     ID["LOCAL_POSITION_NED"]: local_position_ned,
