@@ -20,10 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
+from .feedforward import WaveFeedForward
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
@@ -109,6 +110,7 @@ class Firmware:
         self.ekf = PlanarEKF(vehicle, params, self.h)
         self.controller = StationKeepingController(params, vehicle)
         self.mixer = MotorMixer(layout, curve, params, self.h)
+        self.feedforward = WaveFeedForward(vehicle, params)
         self.on_tick = on_tick
         self.last: TickRecord | None = None
         self.mode = Mode.MANUAL
@@ -117,7 +119,6 @@ class Firmware:
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
         self.failsafe_gcs = False
         self.failsafe_ekf = False
-        self.ff_faults = 0               # forecasts that evaluated to non-finite loads
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
         self._motor_test: MotorTest | None = None
@@ -247,6 +248,11 @@ class Firmware:
             self.failsafe_gcs = False
             self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
 
+    @property
+    def ff_faults(self) -> int:
+        """Forecasts that evaluated to non-finite loads (the feed-forward's fault count)."""
+        return self.feedforward.faults
+
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
             return MAV_STATE.BOOT
@@ -347,20 +353,13 @@ class Firmware:
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
-        if ff_active:
-            # τ̂_E on the vehicle holding station (ν = 0) at the end of the period, when the mixer
-            # has the motors at their demand. The load's dependence on the vehicle's own motion is
-            # left to the feedback: through the quadratic drag it would turn velocity-estimate
-            # noise into feed-forward noise (≈ 300 N per m/s in W2).
-            tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
-            if not np.all(np.isfinite(tau_e_hat)):
-                # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
-                self.ff_faults += 1
-                ff_active, flow, tau_e_hat = False, None, np.zeros(3)
-        else:
-            tau_e_hat = np.zeros(3)
+        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x)
+        if ff_active and not ff.active:
+            # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
+            ff_active, flow = False, None
+        tau_e_hat = ff.tau_e_hat
         self._move_target(t)
-        control = self.controller.update(self.ekf.x, self.setpoint, -tau_e_hat if ff_active else None, self.h)
+        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
         if not self.armed:
             mix = self.mixer.neutral()
         elif self._motor_test is not None and t <= self._motor_test.until:
