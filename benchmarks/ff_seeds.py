@@ -128,9 +128,8 @@ def acceptance(runs: list[dict], law: str) -> dict:
         base, ff = by[(c, s, "cpd")]["max_abs_error"], by[(c, s, exact)]["max_abs_error"]
         bad = [d for d in DOF if ff[d] > base[d] + MAX_MARGIN[d]]
         if bad:
-            worse.append(f"{c} s{s}: " + ", ".join(
-                f"{d} {ff[d] if d != 'pitch' else math.degrees(ff[d]):.2f} vs {base[d] if d != 'pitch' else math.degrees(base[d]):.2f}"
-                for d in bad))
+            shown = lambda v, d: math.degrees(v) if d == "pitch" else v  # noqa: E731
+            worse.append(f"{c} s{s}: " + ", ".join(f"{d} {shown(ff[d], d):.2f} vs {shown(base[d], d):.2f}" for d in bad))
     summ = summarise(runs)
     exact_low = {c: v[exact]["mean_rmse_reduction_pct"] for c, v in summ.items()
                  if exact in v and v[exact]["mean_rmse_reduction_pct"] < 50.0}
@@ -192,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
 
     def save() -> None:
         runs.sort(key=lambda r: (r["case"], r["seed"], list(VARIANTS).index(r["variant"])))
-        doc = {"machine": machine(), "duration_s": a.duration, "variants": {k: [v[0], v[1], v[2]] for k, v in VARIANTS.items()},
+        doc = {"machine": machine(), "duration_s": a.duration, "variants": {k: list(v) for k, v in VARIANTS.items()},
                "runs": runs, "summary": summarise(runs),
                "acceptance": {law: acceptance(runs, law) for law in ("paper", "robust")},
                "wall_time_s": time.perf_counter() - t0}

@@ -68,8 +68,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", integer=True),
     ParamDef("WK_FF_ENABLE", 0, 1, "", "feed-forward wave compensation on (1) or off (0)", integer=True),
     ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
-    ParamDef("WK_FF_MODE", 0, 2, "", "feed-forward law: 0 paper (nu = 0), 1 robust, 2 wave part at the estimated velocity",
-             integer=True),
+    ParamDef("WK_FF_MODE", 0, 2, "", "feed-forward law: 0 paper (nu = 0), 1 robust, "
+             "2 wave part at the estimated velocity", integer=True),
     ParamDef("WK_FF_VEL_TC", 0.0, 5.0, "s", "robust FF: low-pass time constant of the estimated velocity it uses"),
     *_axes("WK_FF_LIM", 0.0, 2.0, ("", "", ""), "robust FF: feed-forward authority as a fraction of tau_max"),
     ParamDef("WK_FF_MON_THR", 0.0, 2.0, "", "robust FF: predicted-observed load disagreement (fraction of "
