@@ -129,7 +129,8 @@ def acceptance(runs: list[dict], law: str) -> dict:
         bad = [d for d in DOF if ff[d] > base[d] + MAX_MARGIN[d]]
         if bad:
             shown = lambda v, d: math.degrees(v) if d == "pitch" else v  # noqa: E731
-            worse.append(f"{c} s{s}: " + ", ".join(f"{d} {shown(ff[d], d):.2f} vs {shown(base[d], d):.2f}" for d in bad))
+            worse.append(f"{c} s{s}: " + ", ".join(f"{d} {shown(ff[d], d):.2f} vs {shown(base[d], d):.2f}"
+                                                   for d in bad))
     summ = summarise(runs)
     exact_low = {c: v[exact]["mean_rmse_reduction_pct"] for c, v in summ.items()
                  if exact in v and v[exact]["mean_rmse_reduction_pct"] < 50.0}
