@@ -2,6 +2,7 @@
 
     wavekeep run       --case W3 --controller cpd_ff --out runs/W3   # one station-keeping mission
     wavekeep reproduce --out runs/reproduce                          # the paper's nine runs and figures
+    wavekeep campaign  configs/campaign/smoke.yaml --out runs/smoke  # a grid of missions on Dask, with CIs
     wavekeep live      --case W3 --mavlink udpout:127.0.0.1:14550    # fly it from a ground station
     wavekeep thrust    --pattern sine --axis heave --arm             # stream thrust demands over MAVLink
     wavekeep sea       --case W1 --duration 1800 --out sea.csv       # the realised sea at the vehicle
@@ -166,6 +167,20 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+def cmd_campaign(args) -> int:
+    """A grid of missions (sea states x seeds x variants) on Dask: rows, statistics across seeds, figures."""
+    from .campaign import report_text, run_campaign
+    from .campaign_spec import load_campaign_spec
+
+    spec = load_campaign_spec(args.spec)
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
+                          retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
+    print(report_text(report))
+    return 0
+
+
 def cmd_live(args) -> int:
     """The vehicle flying live in one process, with its MAVLink link, until Ctrl-C or --duration."""
     from .live import LiveSim
@@ -260,6 +275,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
+    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
+    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
+                   "default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
+    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--log-interval", type=_positive, default=10.0,
+                   help="seconds between progress lines when stderr is not a terminal")
+    p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
     _add_common(p)
