@@ -66,7 +66,8 @@ def plot_box(rows: Sequence[dict[str, Any]], spec: CampaignSpec, metric: str, ti
             if not keep:
                 continue
             bp = ax.boxplot([data[i] for i in keep], positions=pos[keep], widths=width * 0.9, patch_artist=True,
-                            manage_ticks=False, flierprops=dict(markersize=3))
+                            manage_ticks=False, flierprops=dict(markersize=3),
+                            medianprops=dict(color="k"))
             for box in bp["boxes"]:
                 box.set(facecolor=colors[j], alpha=0.6)
             ax.plot([], [], color=colors[j], lw=6, alpha=0.6, label=var)

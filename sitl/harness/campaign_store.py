@@ -73,7 +73,7 @@ class Journal:
         """Write one row and make it durable before returning."""
         if self._fh is None:
             self._repair()
-            self._fh = open(self.path, "a", encoding="utf-8")
+            self._fh = open(self.path, "a", encoding="utf-8")   # noqa: SIM115 (held open across appends; close())
         self._fh.write(json.dumps(row, allow_nan=True) + "\n")
         self._fh.flush()
         os.fsync(self._fh.fileno())

@@ -43,9 +43,11 @@ NONDETERMINISTIC = ("wall_time_s", "speed_x_realtime", "control_tick_p50_us", "c
 
 @dataclass
 class TaskOutcome:
-    """What comes back over the wire: the row, and the time series only if the task asked for it."""
+    """What comes back over the wire: the flat row, the results.json document (a few kB; None if the
+    mission failed) and the per-tick time series only if the task asked for it."""
 
     row: dict[str, Any]
+    results: dict[str, Any] | None = None
     timeseries: np.ndarray | None = None
 
 
@@ -100,19 +102,20 @@ def run_task(task: CampaignTask) -> TaskOutcome:
     for a mission's own failure."""
     t0 = time.perf_counter()
     row: dict[str, Any] = spec_columns(task)
-    series = None
+    series = results = None
     try:
         _check_overrides(task)
         result = run_mission(task.spec)
         row.update(status="ok", error=None)
-        row.update(flatten_results(result.results))
+        results = result.results
+        row.update(flatten_results(results))
         if task.keep_timeseries:
             series = result.timeseries
     except Exception as exc:   # a mission's failure is data: recorded, and the campaign goes on
         tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
         row.update(status="failed", error=tb)
     row.update(worker=_worker_name(), task_wall_s=time.perf_counter() - t0, finished_at=time.time())
-    return TaskOutcome(row, series)
+    return TaskOutcome(row, results, series)
 
 
 def is_number(value: Any) -> bool:

@@ -160,8 +160,10 @@ def cmd_reproduce(args) -> int:
     """The paper's nine runs, the table in its terms, reproduce.json and the figures."""
     from .reproduce import format_reproduce_table, reproduce
 
+    if args.seeds is not None:
+        return _reproduce_seeds(args)
     doc = reproduce(args.out, seed=args.seed, duration=args.duration, workers=args.workers,
-                    plots=not args.no_plots, progress=lambda m: print(m, file=sys.stderr))
+                    plots=not args.no_plots, progress=lambda m: print(m, file=sys.stderr), scheduler=args.scheduler)
     print(format_reproduce_table(doc["runs"], doc["summary"]))
     print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(args.out) / 'reproduce.json'}")
     return 0
@@ -178,6 +180,20 @@ def cmd_campaign(args) -> int:
     report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
                           retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
     print(report_text(report))
+    return 0
+
+
+def _reproduce_seeds(args) -> int:
+    """``reproduce --seeds N``: the paper's grid over seeds 1..N, with bootstrap CIs (a resumable campaign)."""
+    from .campaign import report_text
+    from .reproduce import format_paper_comparison, reproduce_seeds
+
+    if args.seeds < 1 or args.seed is not None:
+        raise UsageError("--seeds N needs N >= 1 and no --seed (the seeds are 1..N)")
+    report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
+                             plots=not args.no_plots, scheduler=args.scheduler)
+    print(report_text(report))
+    print(format_paper_comparison(report.summary))
     return 0
 
 
@@ -271,7 +287,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="the paper's table: W1-W3 x {C-PD, FF exact, FF 15 dB}")
     p.add_argument("--seed", type=int, default=None, help="override every sea config's seed")
     p.add_argument("--duration", type=_positive, default=None, help="seconds per run; default 600")
+    p.add_argument("--seeds", type=int, default=None,
+                   help="run the grid over seeds 1..N and report means with 95 %% bootstrap CIs (a campaign)")
     p.add_argument("--workers", type=int, default=None, help="parallel processes; default one per core")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster")
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
