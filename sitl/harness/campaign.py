@@ -112,15 +112,28 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
         return
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR, env=dict(WORKER_ENV))
+                           dashboard_address="127.0.0.1:0", silence_logs=logging.CRITICAL, env=dict(WORKER_ENV))
     client = Client(cluster)
     try:
         dash = client.dashboard_link if _has_bokeh() else "off (pip install bokeh to get it)"
         say(f"campaign: local cluster {cluster.scheduler_address}, {n} worker(s), dashboard {dash}")
         yield client
+    except KeyboardInterrupt:
+        _kill_workers(cluster)     # a graceful close waits for the missions in flight; Ctrl-C should not
+        raise
     finally:
         client.close(timeout=5)
-        cluster.close(timeout=10)
+        with contextlib.suppress(Exception):
+            cluster.close(timeout=10)
+
+
+def _kill_workers(cluster: Any) -> None:
+    """SIGKILL the local cluster's worker processes (our own children, by pid)."""
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        pid = getattr(getattr(getattr(nanny, "process", None), "process", None), "pid", None)
+        if pid:
+            with contextlib.suppress(OSError):
+                os.kill(pid, signal.SIGKILL)
 
 
 def _has_bokeh() -> bool:
@@ -187,16 +200,20 @@ def execute_tasks(client: Any, tasks: Sequence[CampaignTask],
 
     ac = as_completed([submit() for _ in range(min(window, len(queue)))])
     try:
-        for fut in ac:
-            task = by_key.pop(fut.key)
-            try:
-                outcome = fut.result()
-            except Exception as exc:   # the cluster lost it; the mission itself never raises out of run_task
-                outcome = TaskOutcome(_lost_row(task, exc))
-            fut.release()
-            on_outcome(task, outcome)
-            if queue:
-                ac.add(submit())
+        while not ac.is_empty():
+            if not ac.has_ready():
+                time.sleep(0.05)      # poll: a blocking wait would hold off Ctrl-C until a mission ends
+                continue
+            for fut in ac.next_batch(block=False):
+                task = by_key.pop(fut.key)
+                try:
+                    outcome = fut.result()
+                except Exception as exc:   # the cluster lost it; a mission's own failure never leaves run_task
+                    outcome = TaskOutcome(_lost_row(task, exc))
+                fut.release()
+                on_outcome(task, outcome)
+                if queue:
+                    ac.add(submit())
     except KeyboardInterrupt:
         pending = list(ac.futures)
         ac.clear()

@@ -174,7 +174,11 @@ def cmd_campaign(args) -> int:
     from .campaign import report_text, run_campaign
     from .campaign_spec import load_campaign_spec
 
+    import signal
+
     spec = load_campaign_spec(args.spec)
+    # Ctrl-C stops the campaign (a shell starts background jobs with SIGINT ignored; a campaign wants it)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
