@@ -77,9 +77,10 @@ def test_journal_skips_a_torn_line_and_counts_only_matching_specs(tmp_path):
         j.append({"mission_id": tasks[0].mission_id, "spec_hash": tasks[0].spec_hash, "status": "ok"})
         j.append({"mission_id": tasks[1].mission_id, "spec_hash": "other", "status": "ok"})
         j.append({"mission_id": tasks[2].mission_id, "spec_hash": tasks[2].spec_hash, "status": "failed"})
+        j.append({"mission_id": tasks[3].mission_id, "spec_hash": tasks[3].spec_hash, "status": "lost"})
     with open(tmp_path / "missions.jsonl", "a") as fh:
         fh.write('{"mission_id": "W1:ff:2", "spec_h')          # killed mid-write
-    assert len(read_journal(tmp_path / "missions.jsonl")) == 3
+    assert len(read_journal(tmp_path / "missions.jsonl")) == 4
     j = Journal(tmp_path)
     assert j.done(tasks) == {tasks[0].mission_id, tasks[2].mission_id}
     assert j.done(tasks, retry_failed=True) == {tasks[0].mission_id}

@@ -4,7 +4,7 @@
 before the next is taken, so a crash or Ctrl-C loses at most the missions in
 flight. A rerun into the same folder reads it back and skips every mission
 whose row is there with the same spec digest (a failed one too, unless asked
-to retry). A torn last line (the process died mid-write) is ignored. At the end
+to retry; a mission the cluster lost — its worker died — is always rerun). A torn last line (the process died mid-write) is ignored. At the end
 the journal is consolidated into ``DIR/missions.parquet`` and ``DIR/missions.csv``
 (the newest row per mission id, in the grid's order).
 """
@@ -65,7 +65,8 @@ class Journal:
         out = set()
         for t in tasks:
             r = latest.get(t.mission_id)
-            if r is not None and r.get("spec_hash") == t.spec_hash and (r.get("status") == "ok" or not retry_failed):
+            status = None if r is None or r.get("spec_hash") != t.spec_hash else r.get("status")
+            if status == "ok" or (status == "failed" and not retry_failed):   # "lost" (worker died): rerun
                 out.add(t.mission_id)
         return out
 
