@@ -2,6 +2,7 @@
 
     wavekeep run       --case W3 --controller cpd_ff --out runs/W3   # one station-keeping mission
     wavekeep reproduce --out runs/reproduce                          # the paper's nine runs and figures
+    wavekeep campaign  configs/campaign/smoke.yaml --out runs/smoke  # a grid of missions on Dask, with CIs
     wavekeep live      --case W3 --mavlink udpout:127.0.0.1:14550    # fly it from a ground station
     wavekeep thrust    --pattern sine --axis heave --arm             # stream thrust demands over MAVLink
     wavekeep sea       --case W1 --duration 1800 --out sea.csv       # the realised sea at the vehicle
@@ -159,10 +160,44 @@ def cmd_reproduce(args) -> int:
     """The paper's nine runs, the table in its terms, reproduce.json and the figures."""
     from .reproduce import format_reproduce_table, reproduce
 
+    if args.seeds is not None:
+        return _reproduce_seeds(args)
     doc = reproduce(args.out, seed=args.seed, duration=args.duration, workers=args.workers,
-                    plots=not args.no_plots, progress=lambda m: print(m, file=sys.stderr))
+                    plots=not args.no_plots, progress=lambda m: print(m, file=sys.stderr), scheduler=args.scheduler)
     print(format_reproduce_table(doc["runs"], doc["summary"]))
     print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(args.out) / 'reproduce.json'}")
+    return 0
+
+
+def cmd_campaign(args) -> int:
+    """A grid of missions (sea states x seeds x variants) on Dask: rows, statistics across seeds, figures."""
+    from .campaign import report_text, run_campaign
+    from .campaign_spec import load_campaign_spec
+
+    import signal
+
+    spec = load_campaign_spec(args.spec)
+    # Ctrl-C stops the campaign (a shell starts background jobs with SIGINT ignored; a campaign wants it)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
+                          retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
+    print(report_text(report))
+    return 0
+
+
+def _reproduce_seeds(args) -> int:
+    """``reproduce --seeds N``: the paper's grid over seeds 1..N, with bootstrap CIs (a resumable campaign)."""
+    from .campaign import report_text
+    from .reproduce import format_paper_comparison, reproduce_seeds
+
+    if args.seeds < 1 or args.seed is not None:
+        raise UsageError("--seeds N needs N >= 1 and no --seed (the seeds are 1..N)")
+    report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
+                             plots=not args.no_plots, scheduler=args.scheduler)
+    print(report_text(report))
+    print(format_paper_comparison(report.summary))
     return 0
 
 
@@ -257,10 +292,25 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="the paper's table: W1-W3 x {C-PD, FF exact, FF 15 dB}")
     p.add_argument("--seed", type=int, default=None, help="override every sea config's seed")
     p.add_argument("--duration", type=_positive, default=None, help="seconds per run; default 600")
+    p.add_argument("--seeds", type=int, default=None,
+                   help="run the grid over seeds 1..N and report means with 95 %% bootstrap CIs (a campaign)")
     p.add_argument("--workers", type=int, default=None, help="parallel processes; default one per core")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster")
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
+    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
+    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
+                   "default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
+    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--log-interval", type=_positive, default=10.0,
+                   help="seconds between progress lines when stderr is not a terminal")
+    p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
     _add_common(p)

@@ -1,29 +1,34 @@
 """The paper's results table: W1–W3 × {C-PD, C-PD+FF exact forecast, C-PD+FF 15 dB forecast}.
 
-Runs the nine in-process missions (in parallel, one process per core), prints
-the table in the paper's terms (RMSE and maximum error per DoF, reductions
-against C-PD in %, power) beside the paper's published figures, and writes
-``reproduce.json`` and the figures.
+Runs the nine in-process missions as a small built-in campaign on the campaign
+engine (:mod:`.campaign`: a loopback Dask LocalCluster, one worker per core, or
+an existing cluster), prints the table in the paper's terms (RMSE and maximum
+error per DoF, reductions against C-PD in %, power) beside the paper's
+published figures, and writes ``reproduce.json`` and the figures. With
+``seeds=N`` (``wavekeep reproduce --seeds N``) it runs the same grid over seeds
+1..N as a campaign and reports each reduction's mean with a 95 % bootstrap
+interval (:func:`reproduce_seeds`).
 """
 from __future__ import annotations
 
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from .campaign import CampaignReport, dask_client, execute_tasks, run_campaign
+from .campaign_spec import CampaignSpec, CampaignTask, Variant
+from .campaign_task import TaskOutcome
 from .metrics import DOF
 from .plots import plot_reproduce
-from .results import RunResult
-from .run import run_mission
+from .results import TIMESERIES_COLUMNS, RunResult
 from .spec import PAPER_CASES as CASES
-from .spec import PAPER_VARIANTS, RunSpec
+from .spec import PAPER_VARIANTS
 
-__all__ = ["PAPER", "format_reproduce_table", "reproduce", "summarise"]
+__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "reproduce_seeds", "summarise"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
@@ -34,10 +39,6 @@ PAPER = {
     "max_error_reduction_pct_by_dof": {"surge": 22.0, "heave": 11.8, "pitch": 50.1},
     "note": "Walker et al. §V; the paper's sea states are measured Cefas spectra (realised Hs ≈ 2.3–2.6 m).",
 }
-
-
-def _one(spec: RunSpec) -> RunResult:
-    return run_mission(spec)
 
 
 def reduction_pct(base: float, new: float) -> float:
@@ -98,29 +99,36 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
     return "\n".join(lines)
 
 
+def _tasks(seed: int | None, duration: float | None, plots: bool) -> list[CampaignTask]:
+    """The nine missions; the W3 ones bring their time series back for Figs. 4 and 5."""
+    return [CampaignTask(f"{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}", VARIANT_KEYS[(v.controller, v.snr_db)],
+                         replace(v, case=c, seed=seed, duration=duration), keep_timeseries=plots and c == "W3")
+            for c in CASES for v in PAPER_VARIANTS]
+
+
 def reproduce(out: str | Path, seed: int | None = None, duration: float | None = None, workers: int | None = None,
-              plots: bool = True, progress=print) -> dict:
-    """Run the nine missions, write DIR/reproduce.json (+ figures), return the document."""
+              plots: bool = True, progress=print, scheduler: str | None = None) -> dict:
+    """Run the nine missions on the campaign engine, write DIR/reproduce.json (+ figures), return the document."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [replace(v, case=c, seed=seed, duration=duration) for c in CASES for v in PAPER_VARIANTS]
+    jobs = _tasks(seed, duration, plots)
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()
-    runs: list[RunResult] = []
-    if workers > 1:
-        import multiprocessing as mp
-        # One BLAS thread per worker: the workers already fill the cores
-        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-            for i, r in enumerate(pool.map(_one, jobs)):
-                runs.append(r)
-                progress(f"[{i + 1}/{len(jobs)}] {r.results['case']} {r.results['label']}: done")
-    else:
-        for i, job in enumerate(jobs):
-            runs.append(_one(job))
-            progress(f"[{i + 1}/{len(jobs)}] {job.case} {runs[-1].results['label']}: done")
+    got: dict[str, TaskOutcome] = {}
+
+    def collect(task: CampaignTask, outcome: TaskOutcome) -> None:
+        got[task.mission_id] = outcome
+        progress(f"[{len(got)}/{len(jobs)}] {task.spec.case} {task.spec.label}: {outcome.row['status']}")
+
+    with dask_client(scheduler, workers, say=progress) as client:
+        execute_tasks(client, jobs, collect)
+    failed = [f"{k}: {o.row['error']}" for k, o in got.items() if o.results is None]
+    if failed:
+        raise RuntimeError("reproduce: missions failed: " + "; ".join(failed))
     wall = time.perf_counter() - t0
+    empty = np.empty((0, len(TIMESERIES_COLUMNS)))
+    runs = [RunResult(got[t.mission_id].results, empty if got[t.mission_id].timeseries is None
+                      else got[t.mission_id].timeseries) for t in jobs]
     results = [r.results for r in runs]
     summary = summarise(results)
     doc = {"runs": results, "summary": summary, "paper": PAPER, "wall_time_s": wall}
@@ -128,3 +136,31 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     if plots:
         plot_reproduce(runs, out)
     return doc
+
+
+def paper_campaign(seeds: int, duration: float | None = None) -> CampaignSpec:
+    """The paper's grid over seeds 1..``seeds``: W1–W3 × {C-PD, FF exact, FF 15 dB}, against C-PD."""
+    variants = tuple(Variant(VARIANT_KEYS[(v.controller, v.snr_db)], v.controller, v.forecast, v.snr_db)
+                     for v in PAPER_VARIANTS)
+    return CampaignSpec(f"reproduce_{seeds}_seeds", CASES, tuple(range(1, seeds + 1)), variants, "cpd", duration)
+
+
+def reproduce_seeds(out: str | Path, seeds: int, duration: float | None = None, workers: int | None = None,
+                    plots: bool = True, scheduler: str | None = None, stream=None) -> CampaignReport:
+    """The paper's table over ``seeds`` seeds as a (resumable) campaign into ``out``: missions.parquet,
+    summary.json with bootstrap CIs, and the campaign figures."""
+    return run_campaign(paper_campaign(seeds, duration), out, scheduler=scheduler, workers=workers, plots=plots,
+                        stream=stream)
+
+
+def format_paper_comparison(summary: dict) -> str:
+    """The headline reductions over seeds beside the paper's single-run figures."""
+    o = summary["overall"]
+    lines = []
+    for key, name in (("ff_exact", "exact forecast"), ("ff_snr15", "15 dB forecast")):
+        if key in o:
+            lo, hi = o[key]["reduction_pct_ci95"]
+            lines.append(f"mean RMSE reduction, {name}: {o[key]['reduction_pct_mean']:.1f} % "
+                         f"(95 % CI {lo:.1f} to {hi:.1f} %, {o[key]['n_seeds']} seeds); "
+                         f"paper ≈ {PAPER['mean_rmse_reduction_pct'][key]:.0f} % (one run)")
+    return "\n".join(lines)
