@@ -171,10 +171,10 @@ def cmd_reproduce(args) -> int:
 
 def cmd_campaign(args) -> int:
     """A grid of missions (sea states x seeds x variants) on Dask: rows, statistics across seeds, figures."""
+    import signal
+
     from .campaign import report_text, run_campaign
     from .campaign_spec import load_campaign_spec
-
-    import signal
 
     spec = load_campaign_spec(args.spec)
     # Ctrl-C stops the campaign (a shell starts background jobs with SIGINT ignored; a campaign wants it)
