@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 
-from bridge.models.vehicle import BodyFlow, VehicleParams, rk4_step, state_rates
+from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step
 
 from .params import ParameterTable
 from .sensors import SensorFrame
@@ -97,14 +97,9 @@ class PlanarEKF:
         self.initialised = True
 
     # ------------------------------------------------------------------ predict
-    def _jacobian(self, x: np.ndarray, tau: np.ndarray, flow: tuple | None) -> np.ndarray:
-        f0 = state_rates(self.kf.vehicle, x, tau, flow)
-        A = np.empty((6, 6))
-        for j in range(6):
-            d = 1e-6 * max(1.0, abs(x[j]))
-            xp = x.copy()
-            xp[j] += d
-            A[:, j] = (state_rates(self.kf.vehicle, xp, tau, flow) - f0) / d
+    def _jacobian(self, x: np.ndarray, tau: np.ndarray, flow: BodyFlow | None) -> np.ndarray:
+        """F ≈ I + A h + (A h)²/2 with A the model's Jacobian at x under τ in the flow's first instant."""
+        A = rates_jacobian(self.kf.vehicle, x, tau, flow, 0)
         Ah = A * self.h
         return np.eye(6) + Ah + 0.5 * Ah @ Ah
 
@@ -121,7 +116,7 @@ class PlanarEKF:
             return
         self.kf.tau_stages = np.asarray(tau_stages, dtype=float)
         self.kf.flow = flow
-        self.kf.F = self._jacobian(self.x.copy(), self.kf.tau_stages[0], None if flow is None else flow.stage(0))
+        self.kf.F = self._jacobian(self.x.copy(), self.kf.tau_stages[0], flow)
         self.kf.Q = self._process_noise()
         self.kf.predict()
 
