@@ -17,8 +17,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
 from bridge.csvio import read_numeric_csv
@@ -63,6 +61,8 @@ def _jonswap_norm(gamma: float) -> float:
     For γ = 1 (Pierson–Moskowitz) the integral is 1/5 analytically; the
     DNV closed-form factor (1 − 0.287 ln γ) approximates 0.2/∫ to about 1 %.
     """
+    from scipy.integrate import quad   # imported on first use: ~0.3 s
+
     f = lambda x: float(_jonswap_shape(np.array([x]), gamma)[0])  # noqa: E731
     a, _ = quad(f, 0.2, 1.0, limit=200, points=[1.0])
     b, _ = quad(f, 1.0, 3.0, limit=200)
@@ -266,6 +266,8 @@ def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0:
     ``crest``. Raises ValueError if the components cannot reach it (at most
     Σ A_i when all are in phase).
     """
+    from scipy.optimize import brentq   # imported on first use
+
     if not crest > 0:
         raise ValueError(f"the focused crest must be positive, got {crest}")
     amp = components.amplitude
