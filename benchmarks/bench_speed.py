@@ -71,7 +71,8 @@ def measure(tree: Path, kind: str, tmp: Path) -> dict:
         return {"s": wall, "heavy": out.rsplit("HEAVY:", 1)[-1].strip()}
     if kind in ("run", "run_plots"):
         out = tmp / f"{kind}-{time.monotonic_ns()}"
-        wall, _ = _proc(tree, [*cli, "run", *mission, "--out", str(out), *([] if kind == "run_plots" else ["--no-plots"])])
+        plots = [] if kind == "run_plots" else ["--no-plots"]
+        wall, _ = _proc(tree, [*cli, "run", *mission, "--out", str(out), *plots])
         r = json.loads((out / "results.json").read_text())
         return {"s": wall, "loop_s": r["wall_time_s"], "p50_us": r["control_tick"]["p50_us"],
                 "p99_us": r["control_tick"]["p99_us"]}

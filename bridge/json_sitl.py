@@ -29,7 +29,7 @@ import numpy as np
 try:    # orjson: exact shortest round-trip floats both ways, ~5x faster than json on a state line
     import orjson as _orjson
 except ImportError:  # pragma: no cover - orjson is a dependency; json is the same wire format
-    _orjson = None
+    _orjson = None  # type: ignore[assignment]
 
 from bridge.models.thrusters import NEUTRAL_PWM_US
 from bridge.models.vehicle import body_to_ned, ned_to_body

@@ -19,7 +19,8 @@ sensor out for ever once the model has been wrong for a while.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as linalg   # filterpy's EKF inverts S with it; so does _fuse (same bits)
+import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse (same bits)
+
 from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step
 
 from .filterpy_ekf import ExtendedKalmanFilter

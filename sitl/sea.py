@@ -61,7 +61,7 @@ def _jonswap_norm(gamma: float) -> float:
     For γ = 1 (Pierson–Moskowitz) the integral is 1/5 analytically; the
     DNV closed-form factor (1 − 0.287 ln γ) approximates 0.2/∫ to about 1 %.
     """
-    from scipy.integrate import quad   # imported on first use: ~0.3 s
+    from scipy.integrate import quad  # imported on first use: ~0.3 s
 
     f = lambda x: float(_jonswap_shape(np.array([x]), gamma)[0])  # noqa: E731
     a, _ = quad(f, 0.2, 1.0, limit=200, points=[1.0])
@@ -266,7 +266,7 @@ def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0:
     ``crest``. Raises ValueError if the components cannot reach it (at most
     Σ A_i when all are in phase).
     """
-    from scipy.optimize import brentq   # imported on first use
+    from scipy.optimize import brentq  # imported on first use
 
     if not crest > 0:
         raise ValueError(f"the focused crest must be positive, got {crest}")

@@ -80,13 +80,13 @@ def test_loads_rates_rk4_and_jacobian_match_python(monkeypatch, sea, vehicle):
         flow = body_flow(sea.components, x[:3], rng.uniform(0, 600) + np.array([0.0, 0.025, 0.05]), xs)
         for f in (flow, None):
             for i in range(3):
-                fast, ref = both(monkeypatch, lambda f=f, i=i: hydrodynamic_load_at(vehicle, *x[3:], f, i))
+                fast, ref = both(monkeypatch, lambda f=f, i=i, x=x: hydrodynamic_load_at(vehicle, *x[3:], f, i))
                 close(fast, ref)
-                fast, ref = both(monkeypatch, lambda f=f, i=i: state_rates_at(vehicle, x, tau[i], f, i))
+                fast, ref = both(monkeypatch, lambda f=f, i=i, x=x, tau=tau: state_rates_at(vehicle, x, tau[i], f, i))
                 close(fast, ref)
-            fast, ref = both(monkeypatch, lambda f=f: rk4_step(vehicle, x, 0.05, tau, f))
+            fast, ref = both(monkeypatch, lambda f=f, x=x, tau=tau: rk4_step(vehicle, x, 0.05, tau, f))
             close(fast, ref)
-            fast, ref = both(monkeypatch, lambda f=f: rates_jacobian(vehicle, x, tau[0], f, 0))
+            fast, ref = both(monkeypatch, lambda f=f, x=x, tau=tau: rates_jacobian(vehicle, x, tau[0], f, 0))
             close(fast, ref)
 
 
