@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import socket
 import subprocess
 import sys
@@ -46,12 +47,20 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+CPU: dict[str, float] = {}
+"""CPU time (user + system, s) of the last :func:`_proc` and its children: less sensitive than wall time
+to other people's load on a shared machine."""
+
+
 def _proc(tree: Path, argv: list[str], timeout: float = 900.0) -> tuple[float, str]:
     """Run ``python argv`` in ``tree``; returns (wall s, stdout). Raises on a non-zero exit."""
     env = dict(os.environ, PYTHONPATH=str(tree))
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, *argv], cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
     wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    CPU["s"] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
         raise RuntimeError(f"{argv} in {tree} exited {p.returncode}: {p.stderr[-2000:]}")
     return wall, p.stdout
@@ -112,13 +121,16 @@ def main(argv: list[str] | None = None) -> dict:
             for _ in range(reps):
                 for label, tree in trees.items():
                     m = measure(tree, kind, Path(tmp))
+                    m["cpu_s"] = CPU.get("s", float("nan"))
                     samples[label][kind].append(m)
                     print(f"{kind:<10} {label:<7} {m['s']:7.2f} s  {m}", file=sys.stderr, flush=True)
     figures = {label: {k: _summary(v) for k, v in by.items() if v} for label, by in samples.items()}
     path = write("speed", figures)
     print(f"{'figure':<28}" + "".join(f"{label:>12}" for label in trees))
     for kind in args.only:
-        keys = [("s", "s")] + ([("p99_us", "tick p99 µs"), ("loop_s", "loop s")] if kind.startswith("run") else [])
+        keys = [("s", "s"), ("cpu_s", "cpu s")]
+        if kind.startswith("run"):
+            keys += [("p50_us", "tick p50 µs"), ("p99_us", "tick p99 µs"), ("loop_s", "loop s")]
         for key, name in keys:
             row = [figures[label][kind].get(key) for label in trees]
             print(f"{kind + ' ' + name:<28}" + "".join(f"{v:>12.3f}" if isinstance(v, float) else f"{v!s:>12}"
