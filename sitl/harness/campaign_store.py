@@ -4,7 +4,8 @@
 before the next is taken, so a crash or Ctrl-C loses at most the missions in
 flight. A rerun into the same folder reads it back and skips every mission
 whose row is there with the same spec digest (a failed one too, unless asked
-to retry; a mission the cluster lost — its worker died — is always rerun). A torn last line (the process died mid-write) is ignored. At the end
+to retry; a mission the cluster lost — its worker died — is always rerun).
+A torn last line (the process died mid-write) is ignored. At the end
 the journal is consolidated into ``DIR/missions.parquet`` and ``DIR/missions.csv``
 (the newest row per mission id, in the grid's order).
 """
