@@ -96,7 +96,8 @@ def main() -> dict:
           f"p99 {m['command_ack_rtt']['p99_us'] / 1e3:.1f} ms ({m['lost']} lost)")
     for k, v in m["tick_with_telemetry"].items():
         print(f"  {k} task with full telemetry: p50 {v['p50_us']:.0f} µs, p99 {v['p99_us']:.0f} µs")
-    print(f"zenoh forecast ({z['payload_bytes']} B) publish → hand-off: p50 {z['publish_to_handoff']['p50_us']:.0f} µs, "
+    print(f"zenoh forecast ({z['payload_bytes']} B) publish → hand-off: "
+          f"p50 {z['publish_to_handoff']['p50_us']:.0f} µs, "
           f"p99 {z['publish_to_handoff']['p99_us']:.0f} µs; → a 20 Hz control task: "
           f"p50 {z['publish_to_control_task_20hz']['p50_us'] / 1e3:.1f} ms, "
           f"p99 {z['publish_to_control_task_20hz']['p99_us'] / 1e3:.1f} ms")

@@ -45,7 +45,8 @@ def main() -> dict:
     path = write("plant", figures)
     print("plant step (µs)        p50      p99      max")
     for r in figures["step"]:
-        print(f"  N={r['components']:>3} strips={r['strips']}  {r['p50_us']:8.1f} {r['p99_us']:8.1f} {r['max_us']:8.1f}")
+        print(f"  N={r['components']:>3} strips={r['strips']}  "
+              f"{r['p50_us']:8.1f} {r['p99_us']:8.1f} {r['max_us']:8.1f}")
     for r in figures["open_loop_600s"]:
         print(f"600 s open loop, {r['case']:>5}: {r['wall_s']:.2f} s wall ({r['x_realtime']:.0f}x real time)")
     print(f"wrote {path}")

@@ -48,8 +48,8 @@ def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
     from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
     from firmware_py.firmware import Firmware
-    from firmware_py.gcs import MavlinkLink
     from firmware_py.hal_json import JSONSITLHAL
+    from firmware_py.mavlink import MavlinkLink
     from firmware_py.modes import Mode
     from firmware_py.params import load_params
     from firmware_py.scheduler import Task

@@ -1,6 +1,6 @@
 """Deterministic sea wave prediction (DSWP) from an up-wave buoy record.
 
-The authors' later work (REFERENCE §1 last bullet, §7 last bullet) predicts the
+The authors' later work (docs/reference.md §1 last bullet, §7 last bullet) predicts the
 waves at the vehicle from a probe 50 m up-wave: FFT of the probe record →
 regular components → propagate them down-wave with the dispersion relation.
 :func:`predict_from_buoy` does that and returns a :class:`~bridge.forecast.Forecast`
@@ -192,6 +192,94 @@ def _check_record(t, eta, now):
     return t, eta, dt
 
 
+def _check_arguments(x_buoy, x_vehicle, water_depth, window_s, f_min, f_max, rel_threshold, g, taper,
+                     oversample, ridge) -> None:
+    """ValueError naming the first argument of :func:`predict_from_buoy` that is out of its range."""
+    for name, val in (("x_buoy", x_buoy), ("x_vehicle", x_vehicle), ("water_depth", water_depth),
+                      ("window_s", window_s), ("f_min", f_min), ("f_max", f_max),
+                      ("rel_threshold", rel_threshold), ("g", g)):
+        if not np.isfinite(val):
+            raise ValueError(f"{name} must be finite, got {val!r}")
+    distance = float(x_vehicle) - float(x_buoy)
+    if distance <= 0:
+        raise ValueError(f"the vehicle must be down-wave of the buoy (waves travel towards +x): "
+                         f"x_vehicle - x_buoy = {distance:g} m, need > 0")
+    if water_depth <= 0:
+        raise ValueError(f"water_depth must be positive, got {water_depth!r}")
+    if g <= 0:
+        raise ValueError(f"g must be positive, got {g!r}")
+    if window_s <= 0:
+        raise ValueError(f"window_s must be positive, got {window_s!r}")
+    if not 0 < f_min < f_max:
+        raise ValueError(f"need 0 < f_min < f_max, got f_min={f_min}, f_max={f_max}")
+    if not 0 < rel_threshold <= 1:
+        raise ValueError(f"rel_threshold must be in (0, 1], got {rel_threshold!r}")
+    if taper not in TAPERS:
+        raise ValueError(f"unknown taper {taper!r}; choose one of {TAPERS}")
+    if isinstance(oversample, bool) or int(oversample) != oversample or not 1 <= oversample <= 16:
+        raise ValueError(f"oversample must be an integer in 1..16, got {oversample!r}")
+    if oversample > 1 and not (np.isfinite(ridge) and ridge > 0):
+        raise ValueError(f"ridge must be positive and finite when oversample > 1, got {ridge!r}")
+
+
+
+def _select_frequencies(eta: np.ndarray, n: int, dt: float, f_min: float, f_max: float, rel_threshold: float,
+                        taper: str, oversample: int) -> np.ndarray:
+    """Angular frequencies (rad/s) of the record's strong in-band DFT bins (oversampled when asked)."""
+    freqs = np.fft.rfftfreq(n, dt)
+    in_band = (freqs >= f_min * (1 - 1e-12)) & (freqs <= f_max * (1 + 1e-12))
+    in_band[0] = False
+    if n % 2 == 0:
+        in_band[-1] = False                        # Nyquist bin: no phase information
+    if not np.any(in_band):
+        raise ValueError(f"empty band: no frequency bin of a {n * dt:g} s record at {1 / dt:g} Hz "
+                         f"(resolution {1 / (n * dt):.4g} Hz, Nyquist {0.5 / dt:g} Hz) lies in "
+                         f"[{f_min:g}, {f_max:g}] Hz")
+    w = np.ones(n) if taper == "none" else np.hanning(n)
+    spec = np.fft.rfft((eta - eta.mean()) * w)
+    amp_sel = 2.0 * np.abs(spec) / np.sum(w)       # coherent-gain corrected single-sided amplitude
+    peak = float(np.max(amp_sel[in_band]))
+    if not peak > 0:
+        raise ValueError(f"no wave energy in [{f_min:g}, {f_max:g}] Hz in the buoy record")
+    keep = in_band & (amp_sel >= rel_threshold * peak)
+    f_kept = freqs[keep]
+    if oversample > 1:
+        # Δf/oversample steps across each kept bin [f_j − Δf/2, f_j + Δf/2); shared points merged
+        df = freqs[1]
+        offsets = (np.arange(oversample) - oversample // 2) * (df / oversample)
+        idx = np.unique(np.round((f_kept[:, None] + offsets).ravel() / (df / oversample)).astype(np.int64))
+        f_kept = idx[idx > 0] * (df / oversample)
+    return 2.0 * np.pi * f_kept
+
+
+
+def _fit_components(tau: np.ndarray, eta: np.ndarray, omega: np.ndarray, n: int, dt: float, taper: str,
+                   oversample: int, ridge: float, rel_threshold: float):
+    """(ω, A, φ) of the least-squares (or ridge) fit of the record to cos/sin at ``omega``, τ = t − t_b."""
+    # Columns: constant, linear trend, then cos ω τ and sin ω τ for every kept frequency.
+    arg = np.multiply.outer(tau, omega)
+    cols = np.hstack([np.ones((n, 1)), (tau / (n * dt))[:, None], np.cos(arg), np.sin(arg)])
+    if oversample == 1:
+        coef, *_ = np.linalg.lstsq(cols, eta, rcond=None)
+    else:
+        # Ridge on the wave columns only: lstsq of the stacked system [M; √(λN) P] c = [η; 0]
+        m2 = 2 * omega.size
+        pen = np.zeros((m2, cols.shape[1]))
+        pen[:, 2:] = np.sqrt(ridge * n) * np.eye(m2)
+        coef, *_ = np.linalg.lstsq(np.vstack([cols, pen]), np.concatenate([eta, np.zeros(m2)]), rcond=None)
+    m = omega.size
+    a, b = coef[2:2 + m], coef[2 + m:]
+    amplitude = np.hypot(a, b)
+    phase = np.mod(np.arctan2(b, a), 2.0 * np.pi)  # A cos(ωτ − φ) = A cos(−ωτ + φ)
+
+    if taper != "none" and oversample == 1:
+        # The Hann selection keeps the ±1 neighbours of each line; drop what the refit finds empty.
+        sig = amplitude >= rel_threshold * float(np.max(amplitude))
+        omega, amplitude, phase = omega[sig], amplitude[sig], phase[sig]
+
+    return omega, amplitude, phase
+
+
 def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: float, *,
                       window_s: float = 300.0, f_min: float = 0.05, f_max: float = 0.5,
                       rel_threshold: float = 0.05, deep_water: bool = False, taper: str = "none",
@@ -221,34 +309,10 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
     Returns a :class:`Forecast` with x_ref = x_buoy, time_base = the newest used sample time,
     second_order = False, and valid_from/valid_until the predictable zone at x_vehicle.
     """
-    # ------------------------------------------------------------------ arguments
-    for name, val in (("x_buoy", x_buoy), ("x_vehicle", x_vehicle), ("water_depth", water_depth),
-                      ("window_s", window_s), ("f_min", f_min), ("f_max", f_max),
-                      ("rel_threshold", rel_threshold), ("g", g)):
-        if not np.isfinite(val):
-            raise ValueError(f"{name} must be finite, got {val!r}")
-    distance = float(x_vehicle) - float(x_buoy)
-    if distance <= 0:
-        raise ValueError(f"the vehicle must be down-wave of the buoy (waves travel towards +x): "
-                         f"x_vehicle - x_buoy = {distance:g} m, need > 0")
-    if water_depth <= 0:
-        raise ValueError(f"water_depth must be positive, got {water_depth!r}")
-    if g <= 0:
-        raise ValueError(f"g must be positive, got {g!r}")
-    if window_s <= 0:
-        raise ValueError(f"window_s must be positive, got {window_s!r}")
-    if not 0 < f_min < f_max:
-        raise ValueError(f"need 0 < f_min < f_max, got f_min={f_min}, f_max={f_max}")
-    if not 0 < rel_threshold <= 1:
-        raise ValueError(f"rel_threshold must be in (0, 1], got {rel_threshold!r}")
-    if taper not in TAPERS:
-        raise ValueError(f"unknown taper {taper!r}; choose one of {TAPERS}")
-    if isinstance(oversample, bool) or int(oversample) != oversample or not 1 <= oversample <= 16:
-        raise ValueError(f"oversample must be an integer in 1..16, got {oversample!r}")
+    _check_arguments(x_buoy, x_vehicle, water_depth, window_s, f_min, f_max, rel_threshold, g, taper,
+                     oversample, ridge)
     oversample = int(oversample)
-    if oversample > 1 and not (np.isfinite(ridge) and ridge > 0):
-        raise ValueError(f"ridge must be positive and finite when oversample > 1, got {ridge!r}")
-
+    distance = float(x_vehicle) - float(x_buoy)
     t, eta, dt = _check_record(t, eta, now)
 
     # ------------------------------------------------------------------ window
@@ -261,59 +325,11 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
     # Sample times on the exact uniform grid ending at t_b (the check allowed tiny jitter)
     tau = (np.arange(n) - (n - 1)) * dt            # t − t_b, ≤ 0
 
-    # ------------------------------------------------------------------ bin selection
-    freqs = np.fft.rfftfreq(n, dt)
-    in_band = (freqs >= f_min * (1 - 1e-12)) & (freqs <= f_max * (1 + 1e-12))
-    in_band[0] = False
-    if n % 2 == 0:
-        in_band[-1] = False                        # Nyquist bin: no phase information
-    if not np.any(in_band):
-        raise ValueError(f"empty band: no frequency bin of a {n * dt:g} s record at {1 / dt:g} Hz "
-                         f"(resolution {1 / (n * dt):.4g} Hz, Nyquist {0.5 / dt:g} Hz) lies in "
-                         f"[{f_min:g}, {f_max:g}] Hz")
-    w = np.ones(n) if taper == "none" else np.hanning(n)
-    spec = np.fft.rfft((eta - eta.mean()) * w)
-    amp_sel = 2.0 * np.abs(spec) / np.sum(w)       # coherent-gain corrected single-sided amplitude
-    peak = float(np.max(amp_sel[in_band]))
-    if not peak > 0:
-        raise ValueError(f"no wave energy in [{f_min:g}, {f_max:g}] Hz in the buoy record")
-    keep = in_band & (amp_sel >= rel_threshold * peak)
-    f_kept = freqs[keep]
-    if oversample > 1:
-        # Δf/oversample steps across each kept bin [f_j − Δf/2, f_j + Δf/2); shared points merged
-        df = freqs[1]
-        offsets = (np.arange(oversample) - oversample // 2) * (df / oversample)
-        idx = np.unique(np.round((f_kept[:, None] + offsets).ravel() / (df / oversample)).astype(np.int64))
-        f_kept = idx[idx > 0] * (df / oversample)
-    omega = 2.0 * np.pi * f_kept
-
-    # ------------------------------------------------------------------ least-squares refit
-    # Columns: constant, linear trend, then cos ω τ and sin ω τ for every kept frequency.
-    arg = np.multiply.outer(tau, omega)
-    cols = np.hstack([np.ones((n, 1)), (tau / (n * dt))[:, None], np.cos(arg), np.sin(arg)])
-    if oversample == 1:
-        coef, *_ = np.linalg.lstsq(cols, eta, rcond=None)
-    else:
-        # Ridge on the wave columns only: lstsq of the stacked system [M; √(λN) P] c = [η; 0]
-        m2 = 2 * omega.size
-        pen = np.zeros((m2, cols.shape[1]))
-        pen[:, 2:] = np.sqrt(ridge * n) * np.eye(m2)
-        coef, *_ = np.linalg.lstsq(np.vstack([cols, pen]), np.concatenate([eta, np.zeros(m2)]), rcond=None)
-    m = omega.size
-    a, b = coef[2:2 + m], coef[2 + m:]
-    amplitude = np.hypot(a, b)
-    phase = np.mod(np.arctan2(b, a), 2.0 * np.pi)  # A cos(ωτ − φ) = A cos(−ωτ + φ)
-
-    if taper != "none" and oversample == 1:
-        # The Hann selection keeps the ±1 neighbours of each line; drop what the refit finds empty.
-        sig = amplitude >= rel_threshold * float(np.max(amplitude))
-        omega, amplitude, phase = omega[sig], amplitude[sig], phase[sig]
+    omega = _select_frequencies(eta, n, dt, f_min, f_max, rel_threshold, taper, oversample)
+    omega, amplitude, phase = _fit_components(tau, eta, omega, n, dt, taper, oversample, ridge, rel_threshold)
 
     # ------------------------------------------------------------------ propagation and validity
-    if deep_water:
-        k = omega**2 / g
-    else:
-        k = wavenumber(omega, water_depth, g)
+    k = omega ** 2 / g if deep_water else wavenumber(omega, water_depth, g)
     cg = group_velocity(omega, water_depth, g=g)   # physical arrival: finite depth, whatever the k model
     cg_max, cg_min = float(np.max(cg)), float(np.min(cg))
     record_length = float((n - 1) * dt)

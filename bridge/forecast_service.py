@@ -22,6 +22,7 @@ Modes:
 """
 from __future__ import annotations
 
+import contextlib
 import threading
 from dataclasses import replace
 
@@ -95,9 +96,10 @@ class ForecastService:
             return None
         self.seq += 1
         if self.mode == "oracle":
+            assert self.oracle is not None   # checked at construction
             return replace(self.oracle, valid_from=self.now - 1.0, valid_until=self.now + self.horizon, seq=self.seq)
         from .dswp import predict_from_buoy
-        if self._t.size < 16 or self._t[-1] - self._t[0] < min(self.window, 30.0):
+        if self.buoy_x is None or self._t.size < 16 or self._t[-1] - self._t[0] < min(self.window, 30.0):
             return None
         sel = self._t >= self._t[-1] - self.window
         try:
@@ -138,7 +140,5 @@ class ForecastService:
 
     def close(self) -> None:
         for h in (self._token, self._pub, self._buoy, self._queries):
-            try:
+            with contextlib.suppress(Exception):
                 h.undeclare()
-            except Exception:
-                pass

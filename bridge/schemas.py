@@ -12,7 +12,12 @@ from bridge.configfile import Field, load_config, resolve_config
 
 __all__ = ["MISSION_SCHEMA", "VEHICLE_SCHEMA", "load_mission_config", "load_vehicle_config"]
 
-_pos = dict(lo=0.0, lo_open=True)
+
+
+def _positive(hi: float, doc: str = "") -> Field:
+    """A float in (0, hi]."""
+    return Field("float", lo=0.0, lo_open=True, hi=hi, doc=doc)
+
 
 _THRUSTER_ITEM = {
     "name": Field("str"),
@@ -23,13 +28,13 @@ _THRUSTER_ITEM = {
 VEHICLE_SCHEMA = {
     "name": Field("str"),
     "mass_properties": {
-        "W": Field("float", hi=1e5, **_pos, doc="weight (N)"),
-        "B": Field("float", hi=1e5, **_pos, doc="buoyancy (N)"),
-        "I_y": Field("float", hi=1e3, **_pos, doc="pitch inertia (kg m^2)"),
+        "W": _positive(1e5, "weight (N)"),
+        "B": _positive(1e5, "buoyancy (N)"),
+        "I_y": _positive(1e3, "pitch inertia (kg m^2)"),
         "r_G": Field("floats", lo=-1.0, hi=1.0, length=3),
         "r_B": Field("floats", lo=-1.0, hi=1.0, length=3),
-        "length": Field("float", hi=10.0, **_pos, doc="body length L (m)"),
-        "height": Field("float", hi=10.0, **_pos, doc="body height (m)"),
+        "length": _positive(10.0, "body length L (m)"),
+        "height": _positive(10.0, "body height (m)"),
     },
     "added_mass": {
         "X_udot": Field("float", lo=0.0, hi=1e3),
@@ -46,8 +51,8 @@ VEHICLE_SCHEMA = {
         "M_qq": Field("float", lo=0.0, hi=1e3),
     },
     "thrusters": {
-        "thrust_max": Field("float", hi=500.0, **_pos, doc="controller cap per thruster (N)"),
-        "time_constant": Field("float", hi=5.0, **_pos, doc="first-order motor lag (s)"),
+        "thrust_max": _positive(500.0, "controller cap per thruster (N)"),
+        "time_constant": _positive(5.0, "first-order motor lag (s)"),
         "pwm_min": Field("float", lo=800.0, hi=1500.0),
         "pwm_max": Field("float", lo=1500.0, hi=2200.0),
         "pwm_neutral": Field("float", lo=1400.0, hi=1600.0),
@@ -66,7 +71,7 @@ MISSION_SCHEMA = {
         "depth": Field("float", lo=0.5, hi=50.0, doc="depth below still water (m)"),
         "pitch": Field("float", lo=-1.0, hi=1.0, doc="pitch (rad)"),
     },
-    "duration": Field("float", hi=86400.0, **_pos, doc="mission length (s)"),
+    "duration": _positive(86400.0, "mission length (s)"),
     "control_rate": Field("float", lo=1.0, hi=1000.0, doc="control task rate (Hz)"),
     "plant": {
         "substeps": Field("int", lo=1, hi=100, doc="RK4 steps per control period"),

@@ -1,6 +1,6 @@
 """Zenoh sessions for the forecast link, configured from ``configs/network.yaml``.
 
-Loopback by default, multicast scouting off (NOTES.md: zenoh's pitfalls measured
+Loopback by default, multicast scouting off (docs/platform-notes.md: zenoh's pitfalls measured
 here). The forecast service *listens*; vehicles and the plant *connect* to it,
 so with gossip scouting the peers find each other through it. Always close a
 session (``with open_session(...) as s:``): a Python-callback handler keeps the
@@ -42,7 +42,8 @@ def load_network_config(name_or_path: str | Path = "network") -> dict:
         eps = cfg["zenoh"][key] or []
         for i, ep in enumerate(eps):
             if "/" not in ep or ep.split("/", 1)[0] not in ("tcp", "udp", "tls", "quic", "unixsock-stream"):
-                raise ConfigError(path, f"zenoh.{key}[{i}]", f"got {ep!r}; allowed: PROTO/ADDRESS like tcp/127.0.0.1:7447")
+                raise ConfigError(path, f"zenoh.{key}[{i}]",
+                                  f"got {ep!r}; allowed: PROTO/ADDRESS like tcp/127.0.0.1:7447")
         cfg["zenoh"][key] = list(eps)
     return cfg
 

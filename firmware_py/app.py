@@ -6,9 +6,9 @@ Start-up, in order: parameters (``configs/firmware/params.yaml`` plus
 ``--set NAME=VALUE``), the HAL (waits for the plant's first state), the
 MAVLink link, the forecast subscriber (zenoh, unless ``--no-forecast``); then
 the first control tick (the estimator initialises), a garbage collection and
-``gc.freeze()`` (NOTES.md: a full collection would cost more than a tick), and
+``gc.freeze()`` (docs/platform-notes.md: a full collection would cost more than a tick), and
 the 20 Hz loop until SIGINT/SIGTERM, under SCHED_FIFO where the OS permits it
-(paced runs; NOTES.md: start error p99 ≈ 15 µs even with both cores loaded).
+(paced runs; docs/platform-notes.md: start error p99 ≈ 15 µs even with both cores loaded).
 
 ``--hold-until-armed`` keeps simulated time still after the first tick until a
 ground station has armed the vehicle, so a scripted start (the launcher's) is
@@ -42,7 +42,7 @@ def _parse_hal(text: str) -> tuple[str, int]:
 
 
 def _parse_set(text: str) -> tuple[str, float]:
-    name, sep, value = text.partition("=")
+    name, _sep, value = text.partition("=")
     try:
         return name.strip(), float(value)
     except ValueError:
@@ -102,11 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
 
+    from .clocks import LockstepPacedClock
     from .firmware import Firmware
-    from .gcs import MavlinkLink, load_signing_key
     from .hal_json import JSONSITLHAL
+    from .mavlink import MavlinkLink, load_signing_key
     from .params import load_params
-    from .scheduler import LockstepPacedClock, Task
+    from .scheduler import Task
 
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -160,17 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wavekeep firmware: ready, {'lockstep' if not args.speedup else f'{args.speedup:g}x real time'}, "
               f"{realtime}{', holding until armed' if args.hold_until_armed else ''}", flush=True)
         if args.hold_until_armed:
-            # Simulated time stands still; the link's telemetry (heartbeat, streams) runs on
-            # wall time meanwhile so a ground station can see and arm the vehicle.
-            frozen = fw.scheduler.next_slot_ns() - fw.scheduler.period_ns
-            wall0 = time.monotonic_ns()
-            while not fw.armed and not stop.is_set():
-                if forecast_link is not None:
-                    forecast_link.poll()
-                link.update(frozen + time.monotonic_ns() - wall0)
-                time.sleep(0.005)
-            link.restart_streams(fw.scheduler.next_slot_ns())
-            fw.refresh_prediction()
+            _hold_until_armed(fw, link, forecast_link, stop)
         if args.speedup:
             # From here on, pace lockstep time against the wall clock from the next slot
             start = fw.scheduler.next_slot_ns()
@@ -182,17 +173,37 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(hal.clock, LockstepPacedClock):
             stats["paced"] = {"speedup": hal.clock.speedup, "late_slots": hal.clock.late,
                               "max_lag_ms": hal.clock.max_lag_ns / 1e6}
-        link.stop()
-        if forecast_link is not None:
-            forecast_link.close()
-        if session is not None:
-            session.close()
-        hal.close()
+        for closable in (link, forecast_link, session, hal):
+            _close(closable)
         if args.log:
             _write_log(args.log, rows, stats)
         print(f"wavekeep firmware: stopped after {stats['ticks']} ticks, {stats['overruns']} overruns; "
               f"link {link.counters}", flush=True)
     return 0
+
+
+def _close(thing) -> None:
+    """Stop or close a link, session or HAL at exit (None: nothing to do)."""
+    if thing is not None:
+        (getattr(thing, "stop", None) or thing.close)()
+
+
+def _hold_until_armed(fw, link, forecast_link, stop: threading.Event) -> None:
+    """Hold simulated time still until a ground station arms the vehicle.
+
+    The link's telemetry (heartbeat, streams) runs on wall time meanwhile, so a
+    ground station can see and arm the vehicle; then the streams restart on the
+    simulated clock and the forecast prediction is refreshed.
+    """
+    frozen = fw.scheduler.next_slot_ns() - fw.scheduler.period_ns
+    wall0 = time.monotonic_ns()
+    while not fw.armed and not stop.is_set():
+        if forecast_link is not None:
+            forecast_link.poll()
+        link.update(frozen + time.monotonic_ns() - wall0)
+        time.sleep(0.005)
+    link.restart_streams(fw.scheduler.next_slot_ns())
+    fw.refresh_prediction()
 
 
 if __name__ == "__main__":

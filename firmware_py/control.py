@@ -1,6 +1,6 @@
 """Station-keeping controller: cascaded PD (C-PD) with wave feed-forward — paper Eq. 12.
 
-Structure, after the authors' implementation (REFERENCE §7):
+Structure, after the authors' implementation (docs/reference.md §7):
 
 * the position error e = R(θ)ᵀ (η_r − η̂) is taken in the body frame for surge
   and heave (pitch error as is);
@@ -15,7 +15,7 @@ Structure, after the authors' implementation (REFERENCE §7):
   of this; ArduSub integrates instead);
 * feed-forward (C-PD+FF): u += g_ff · τ_FF / τ_max with τ_FF = −τ̂_E, the
   predicted wave load negated (the paper prints the inertia term with the
-  wrong sign; DESIGN "Frames and signs");
+  wrong sign; docs/architecture.md);
 * τ = τ_max · sat(u, 1).
 """
 from __future__ import annotations

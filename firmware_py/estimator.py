@@ -35,7 +35,10 @@ CHANNELS = ("position", "depth", "pitch", "pitch_rate")
 
 
 class _ModelEKF(ExtendedKalmanFilter):
-    """filterpy EKF whose prediction integrates the nonlinear vehicle model (NOTES.md: override predict_x)."""
+    """filterpy EKF whose prediction integrates the nonlinear vehicle model.
+
+    (filterpy: override ``predict_x`` and set ``F``; see docs/platform-notes.md.)
+    """
 
     def __init__(self, vehicle: VehicleParams, h: float):
         super().__init__(dim_x=6, dim_z=4)
@@ -153,13 +156,13 @@ class PlanarEKF:
                 else:
                     self.rejected[name] += 1
         self._last_accept_t[accept | reset] = frame.t
-        for i in np.flatnonzero(reset):
-            j = idx[i]
-            self.kf.x[j, 0] = z[i]
+        for k in np.flatnonzero(reset).tolist():
+            j = int(idx[k])
+            self.kf.x[j, 0] = z[k]
             self.kf.P[j, :] = 0.0
             self.kf.P[:, j] = 0.0
-            self.kf.P[j, j] = r[i]
-            self.resets[CHANNELS[i]] += 1
+            self.kf.P[j, j] = r[k]
+            self.resets[CHANNELS[k]] += 1
         if accept.any():
             rows = idx[accept]
             H = np.zeros((rows.size, 6))

@@ -15,15 +15,16 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, hydrodynamic_load, strip_nodes
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
+from .feedforward import WaveFeedForward
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
@@ -31,6 +32,7 @@ from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mo
 from .params import ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
+from .telemetry_snapshot import TelemetrySnapshot
 
 __all__ = ["TICK_COLUMNS", "Firmware", "PilotInput", "TickRecord", "tick_row"]
 
@@ -49,6 +51,7 @@ class TickRecord:
     tau_e_hat: np.ndarray      # predicted wave load at the end of the period (zeros without a forecast)
     ff_active: bool
     forecast_seq: int
+    ff_weight: np.ndarray = field(default_factory=lambda: np.ones(3))   # FF monitor's weights [X, Z, M]
 
 
 TICK_COLUMNS = (
@@ -56,7 +59,7 @@ TICK_COLUMNS = (
     + ["sp_x", "sp_z", "sp_theta"]
     + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
     + [f"pwm{i}" for i in range(1, 9)]
-    + ["ff_active"]
+    + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
 
@@ -64,7 +67,7 @@ TICK_COLUMNS = (
 def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
-            float(r.ff_active)]
+            float(r.ff_active), *r.ff_weight]
 
 
 @dataclass
@@ -109,6 +112,8 @@ class Firmware:
         self.ekf = PlanarEKF(vehicle, params, self.h)
         self.controller = StationKeepingController(params, vehicle)
         self.mixer = MotorMixer(layout, curve, params, self.h)
+        self.feedforward = WaveFeedForward(vehicle, params, self.h)
+        self._ff_faded = False
         self.on_tick = on_tick
         self.last: TickRecord | None = None
         self.mode = Mode.MANUAL
@@ -117,7 +122,6 @@ class Firmware:
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
         self.failsafe_gcs = False
         self.failsafe_ekf = False
-        self.ff_faults = 0               # forecasts that evaluated to non-finite loads
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
         self._motor_test: MotorTest | None = None
@@ -247,6 +251,15 @@ class Firmware:
             self.failsafe_gcs = False
             self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
 
+    def telemetry_snapshot(self) -> TelemetrySnapshot:
+        """What a ground station is told, taken now (once per GCS tick, from the scheduler thread)."""
+        return TelemetrySnapshot.from_firmware(self)
+
+    @property
+    def ff_faults(self) -> int:
+        """Forecasts that evaluated to non-finite loads (the feed-forward's fault count)."""
+        return self.feedforward.faults
+
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
             return MAV_STATE.BOOT
@@ -306,6 +319,25 @@ class Firmware:
         if self.armed:
             self._failsafe_action(action)
 
+    def _applied_thrust(self) -> np.ndarray | None:
+        """The mean thruster wrench the mixer expected over the last period (Simpson over its 3 stages), or None."""
+        if self._pending is None:
+            return None
+        st = np.asarray(self._pending[0], dtype=float)
+        return (st[0] + 4.0 * st[1] + st[2]) / 6.0
+
+    def _announce_fade(self, weight: np.ndarray) -> None:
+        """STATUSTEXT when the FF monitor fades an axis below half weight, and when all recover."""
+        faded = bool(np.any(weight < 0.5))
+        if faded and not self._ff_faded:
+            axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
+            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
+        elif not faded and self._ff_faded and np.all(weight > 0.9):
+            self.say(MAV_SEVERITY.INFO, "FF restored")
+        else:
+            return
+        self._ff_faded = faded
+
     def _pilot_wrench(self, t: float) -> np.ndarray:
         """Pilot demand as a wrench [X, Z, M] (N, N, N m): forward, up (−Z in FRD), pitch up."""
         p = self.pilot
@@ -347,20 +379,14 @@ class Firmware:
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
-        if ff_active:
-            # τ̂_E on the vehicle holding station (ν = 0) at the end of the period, when the mixer
-            # has the motors at their demand. The load's dependence on the vehicle's own motion is
-            # left to the feedback: through the quadratic drag it would turn velocity-estimate
-            # noise into feed-forward noise (≈ 300 N per m/s in W2).
-            tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
-            if not np.all(np.isfinite(tau_e_hat)):
-                # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
-                self.ff_faults += 1
-                ff_active, flow, tau_e_hat = False, None, np.zeros(3)
-        else:
-            tau_e_hat = np.zeros(3)
+        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust())
+        self._announce_fade(ff.weight)
+        if ff_active and not ff.active:
+            # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
+            ff_active, flow = False, None
+        tau_e_hat = ff.tau_e_hat
         self._move_target(t)
-        control = self.controller.update(self.ekf.x, self.setpoint, -tau_e_hat if ff_active else None, self.h)
+        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
         if not self.armed:
             mix = self.mixer.neutral()
         elif self._motor_test is not None and t <= self._motor_test.until:
@@ -379,6 +405,6 @@ class Firmware:
         self.hal.write_pwm(mix.pwm)
         self._pending, self._pending_t = (mix.tau_stages, flow), t
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
-                               tau_e_hat, ff_active, seq)
+                               tau_e_hat, ff_active, seq, ff.weight)
         if self.on_tick is not None:
             self.on_tick(self.last)

@@ -1,7 +1,7 @@
 """The vehicle's end of the forecast link: zenoh in, the :class:`ForecastHandoff` out.
 
 :meth:`ZenohForecastLink.poll` runs as a scheduler task. It never blocks: the
-forecast subscriber keeps only the newest sample (``RingChannel(1)``, NOTES.md)
+forecast subscriber keeps only the newest sample (``RingChannel(1)``, docs/platform-notes.md)
 and the liveliness subscriber a short FIFO; both are read with ``try_recv``.
 Every payload goes through :func:`~bridge.forecast_codec.decode_forecast`; a
 rejected one is counted by reason and never reaches the control task. The
@@ -14,6 +14,7 @@ the last forecast it sent expires.
 """
 from __future__ import annotations
 
+import contextlib
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -103,7 +104,5 @@ class ZenohForecastLink:
 
     def close(self) -> None:
         for h in (self._sub, self._live):
-            try:
+            with contextlib.suppress(Exception):
                 h.undeclare()
-            except Exception:
-                pass

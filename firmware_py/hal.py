@@ -19,8 +19,8 @@ import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US
 
+from .clocks import Clock, SimClock
 from .params import ParameterTable
-from .scheduler import Clock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
 __all__ = ["HAL", "PWM_CHANNELS", "InProcessSITLHAL", "PlantLike"]
@@ -40,8 +40,15 @@ class HAL(ABC):
         """Output eight thruster pulse widths (µs)."""
 
 
+class PlantStateLike(Protocol):
+    t: float              # s
+    eta: np.ndarray       # [x, z, θ]
+    nu: np.ndarray        # [u, w, q]
+
+
 class PlantLike(Protocol):
-    state: object
+    @property
+    def state(self) -> PlantStateLike: ...
 
     def step(self, pwm, dt: float) -> object: ...
 

@@ -34,9 +34,9 @@ import numpy as np
 from bridge.json_sitl import decode_state, servo_packet
 from bridge.models.thrusters import NEUTRAL_PWM_US
 
+from .clocks import Clock, LockstepPacedClock, SimClock
 from .hal import HAL, PWM_CHANNELS
 from .params import ParameterTable
-from .scheduler import Clock, LockstepPacedClock, SimClock
 from .sensors import SensorFrame, SimulatedSensors
 
 __all__ = ["DEFAULT_TIMEOUT_S", "JSONSITLHAL", "HALCounters", "JSONState"]
@@ -110,7 +110,7 @@ class JSONSITLHAL(HAL):
             raise ValueError(f"the loop rate must be a whole number of Hz for the JSON SITL frame_rate, "
                              f"got {rate:g} Hz")
         if timeout_s is None:
-            timeout_s = params[TIMEOUT_PARAM] if TIMEOUT_PARAM in params else DEFAULT_TIMEOUT_S
+            timeout_s = params.get(TIMEOUT_PARAM, DEFAULT_TIMEOUT_S)
         if not timeout_s > 0:
             raise ValueError(f"timeout_s must be positive, got {timeout_s}")
         self.address = (address[0], int(address[1]))
@@ -146,7 +146,7 @@ class JSONSITLHAL(HAL):
         while True:
             self._send(np.full(PWM_CHANNELS, NEUTRAL_PWM_US))
             wait = min(self.timeout_s, deadline - time.monotonic())
-            if wait > 0 and self._await_reply(wait):
+            if wait > 0 and self._await_reply(wait) and self.state is not None:
                 return self.state
             if time.monotonic() >= deadline:
                 raise TimeoutError(f"no JSON SITL physics server answered at udp {self.address[0]}:"

@@ -1,4 +1,4 @@
-"""Flight modes with ArduSub's numbers and meanings (REFERENCE §3), mapped onto Wavekeep's controllers.
+"""Flight modes with ArduSub's numbers and meanings (docs/reference.md §3), mapped onto Wavekeep's controllers.
 
 Which axes the automatic controller holds in each mode; the others take the
 pilot's input straight to the mixer (scaled by τ_max):

@@ -22,9 +22,20 @@ from bridge.configfile import ConfigError, load_config, resolve_config
 __all__ = ["PARAM_DEFS", "ParamDef", "ParameterTable", "load_params"]
 
 
+INT_TYPE_RANGES: dict[str, tuple[int, int]] = {"INT8": (-128, 127), "INT16": (-32768, 32767),
+                                               "INT32": (-2**31, 2**31 - 1)}
+"""The storage types of integer parameters (AP_Int8/16/32) and what each holds."""
+PARAM_TYPES = ("REAL32", *INT_TYPE_RANGES)
+
+
 @dataclass(frozen=True)
 class ParamDef:
-    """Definition of one parameter: name (≤ 16 chars), inclusive range, units, meaning."""
+    """Definition of one parameter: name (≤ 16 chars), inclusive range, units, meaning, storage type.
+
+    ``ptype`` is the MAVLink parameter type (ArduPilot's AP_Float / AP_Int8 / AP_Int16 /
+    AP_Int32): ``"REAL32"``, ``"INT8"``, ``"INT16"`` or ``"INT32"``. ``integer=True``
+    without a ``ptype`` means INT32; an integer ``ptype`` makes the parameter integer.
+    """
 
     name: str
     lo: float
@@ -32,12 +43,22 @@ class ParamDef:
     units: str
     doc: str
     integer: bool = False
+    ptype: str = ""
 
     def __post_init__(self) -> None:
         if not (1 <= len(self.name) <= 16) or self.name.upper() != self.name:
             raise ValueError(f"parameter name {self.name!r} must be 1-16 upper-case characters")
         if not self.lo <= self.hi:
             raise ValueError(f"parameter {self.name}: empty range [{self.lo}, {self.hi}]")
+        ptype = self.ptype or ("INT32" if self.integer else "REAL32")
+        if ptype not in PARAM_TYPES:
+            raise ValueError(f"parameter {self.name}: type {ptype!r} is not one of {', '.join(PARAM_TYPES)}")
+        object.__setattr__(self, "ptype", ptype)
+        object.__setattr__(self, "integer", ptype != "REAL32")
+        if self.integer:
+            lo, hi = INT_TYPE_RANGES[ptype]
+            if not lo <= self.lo <= self.hi <= hi:
+                raise ValueError(f"parameter {self.name}: range [{self.lo}, {self.hi}] does not fit {ptype}")
 
     def check(self, value: float) -> str | None:
         """Why ``value`` is not allowed, or None."""
@@ -55,24 +76,33 @@ class ParamDef:
 def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: str) -> list[ParamDef]:
     """One parameter per DoF: _X surge, _Z heave, _P pitch."""
     return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
-            for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units)]
+            for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units, strict=False)]
 
 
 PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     # Cascaded PD (paper Eq. 12): outer position loop → velocity demand, inner velocity loop → τ/τ_max
     *_axes("WK_PD_KP", 0.0, 20.0, ("1/s", "1/s", "1/s"), "position P gain: velocity demand per unit error"),
     *_axes("WK_PD_KD", 0.0, 20.0, ("", "", ""), "position D gain: velocity demand per unit error rate"),
-    *_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/m", "s/rad"), "velocity P gain: normalised effort per unit velocity error"),
+    *_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/m", "s/rad"),
+           "velocity P gain: normalised effort per unit velocity error"),
     *_axes("WK_VEL_MAX", 0.01, 5.0, ("m/s", "m/s", "rad/s"), "velocity demand limit"),
     *_axes("WK_TAU_MAX", 0.1, 1000.0, ("N", "N", "N m"), "maximum control effort τ_max"),
-    ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", integer=True),
-    ParamDef("WK_FF_ENABLE", 0, 1, "", "feed-forward wave compensation on (1) or off (0)", integer=True),
+    ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", ptype="INT8"),
+    ParamDef("WK_FF_ENABLE", 0, 1, "", "feed-forward wave compensation on (1) or off (0)", ptype="INT8"),
     ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
+    ParamDef("WK_FF_MODE", 0, 2, "", "feed-forward law: 0 paper (nu = 0), 1 robust, "
+             "2 wave part at the estimated velocity", integer=True),
+    ParamDef("WK_FF_VEL_TC", 0.0, 5.0, "s", "robust FF: low-pass time constant of the estimated velocity it uses"),
+    *_axes("WK_FF_LIM", 0.0, 2.0, ("", "", ""), "robust FF: feed-forward authority as a fraction of tau_max"),
+    ParamDef("WK_FF_MON_THR", 0.0, 2.0, "", "robust FF: predicted-observed load disagreement (fraction of "
+             "tau_max) at which FF starts to fade; 0 disables the monitor"),
+    ParamDef("WK_FF_MON_TC", 0.05, 20.0, "s", "robust FF: monitor filter time constant and weight recovery time"),
+    ParamDef("WK_FF_W_MIN", 0.0, 1.0, "", "robust FF: smallest weight the monitor fades an axis to"),
     # Motors and mixer
     ParamDef("WK_THR_MAX", 1.0, 60.0, "N", "per-thruster thrust limit used by the allocation"),
     ParamDef("WK_THR_MIN", 0.0, 5.0, "N", "thrust commands smaller than this are sent as neutral PWM"),
     ParamDef("WK_MOT_TC", 0.001, 2.0, "s", "nominal first-order motor time constant"),
-    ParamDef("WK_MOT_COMP", 0, 1, "", "motor-lag compensation (paper Eq. 13) on (1) or off (0)", integer=True),
+    ParamDef("WK_MOT_COMP", 0, 1, "", "motor-lag compensation (paper Eq. 13) on (1) or off (0)", ptype="INT8"),
     # Estimator
     ParamDef("WK_EKF_Q_POS", 0.0, 10.0, "m/s^0.5", "process noise density on x and z"),
     ParamDef("WK_EKF_Q_ANG", 0.0, 10.0, "rad/s^0.5", "process noise density on pitch"),
@@ -89,22 +119,23 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_PILOT_TMO", 0.1, 10.0, "s", "pilot input older than this is treated as neutral"),
     ParamDef("WK_CLIMB_RATE", 0.01, 2.0, "m/s", "ALT_HOLD depth-target rate at full throttle stick"),
     ParamDef("WK_SURF_RATE", 0.01, 2.0, "m/s", "SURFACE mode ascent rate of the depth target"),
-    ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
+    ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),
     ParamDef("FS_GCS_TIMEOUT", 0.1, 120.0, "s", "GCS heartbeat timeout"),
-    ParamDef("FS_EKF_ACTION", 0, 4, "", "EKF failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", integer=True),
-    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m", "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
-    ParamDef("SYSID_THISMAV", 1, 255, "", "this vehicle's MAVLink system id", integer=True),
-    ParamDef("SYSID_MYGCS", 1, 255, "", "the ground station's MAVLink system id", integer=True),
+    ParamDef("FS_EKF_ACTION", 0, 4, "", "EKF failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),
+    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m",
+             "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
+    ParamDef("SYSID_THISMAV", 1, 255, "", "this vehicle's MAVLink system id", ptype="INT16"),
+    ParamDef("SYSID_MYGCS", 1, 255, "", "the ground station's MAVLink system id", ptype="INT16"),
     ParamDef("WK_ORIGIN_LAT", -90.0, 90.0, "deg", "latitude of the local NED origin (GLOBAL_POSITION_INT)"),
     ParamDef("WK_ORIGIN_LON", -180.0, 180.0, "deg", "longitude of the local NED origin"),
     # Telemetry stream rates (ArduPilot's SR0_*), Hz
-    ParamDef("SR0_RAW_SENS", 0, 50, "Hz", "SCALED_PRESSURE, SCALED_PRESSURE2"),
-    ParamDef("SR0_EXT_STAT", 0, 50, "Hz", "SYS_STATUS, NAMED_VALUE_FLOAT"),
-    ParamDef("SR0_RC_CHAN", 0, 50, "Hz", "SERVO_OUTPUT_RAW, RC_CHANNELS"),
-    ParamDef("SR0_POSITION", 0, 50, "Hz", "GLOBAL_POSITION_INT, LOCAL_POSITION_NED"),
-    ParamDef("SR0_EXTRA1", 0, 50, "Hz", "ATTITUDE"),
-    ParamDef("SR0_EXTRA2", 0, 50, "Hz", "VFR_HUD"),
-    ParamDef("SR0_EXTRA3", 0, 50, "Hz", "SYSTEM_TIME"),
+    ParamDef("SR0_RAW_SENS", 0, 50, "Hz", "SCALED_PRESSURE, SCALED_PRESSURE2", ptype="INT16"),
+    ParamDef("SR0_EXT_STAT", 0, 50, "Hz", "SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAMED_VALUE_FLOAT", ptype="INT16"),
+    ParamDef("SR0_RC_CHAN", 0, 50, "Hz", "SERVO_OUTPUT_RAW, RC_CHANNELS", ptype="INT16"),
+    ParamDef("SR0_POSITION", 0, 50, "Hz", "GLOBAL_POSITION_INT, LOCAL_POSITION_NED", ptype="INT16"),
+    ParamDef("SR0_EXTRA1", 0, 50, "Hz", "ATTITUDE", ptype="INT16"),
+    ParamDef("SR0_EXTRA2", 0, 50, "Hz", "VFR_HUD", ptype="INT16"),
+    ParamDef("SR0_EXTRA3", 0, 50, "Hz", "SYSTEM_TIME", ptype="INT16"),
     # Simulated sensors (SITL HAL)
     ParamDef("SIM_JSON_TMO", 0.05, 5.0, "s", "JSON SITL HAL: plant silent this long → sensors unhealthy"),
     ParamDef("SIM_POS_RND", 0.0, 10.0, "m", "position fix noise (1 sigma), e.g. an acoustic positioning system"),
@@ -139,6 +170,10 @@ class ParameterTable:
 
     def __getitem__(self, name: str) -> float:
         return self._values[name]
+
+    def get(self, name: str, default: float) -> float:
+        """The parameter's value, or ``default`` if the table has no such parameter."""
+        return self._values.get(name, default)
 
     def __contains__(self, name: str) -> bool:
         return name in self._values

@@ -7,6 +7,8 @@ last message (on the buoy's own sample grid) go out on
 """
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from bridge.buoy_codec import BuoyRecord, encode_buoy
@@ -51,7 +53,5 @@ class BuoyPublisher:
         self.published += 1
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(Exception):
             self._pub.undeclare()
-        except Exception:
-            pass

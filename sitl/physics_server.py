@@ -44,6 +44,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -112,7 +113,7 @@ class PhysicsServer:
     manager) in a background thread.
     """
 
-    def __init__(self, plant_factory: Callable[[], object], host: str = "127.0.0.1", port: int = DEFAULT_PORT,
+    def __init__(self, plant_factory: Callable[[], Any], host: str = "127.0.0.1", port: int = DEFAULT_PORT,
                  poll_s: float = 0.1):
         self.plant_factory = plant_factory
         self.host = host
@@ -179,7 +180,7 @@ class PhysicsServer:
         if not self._session:
             # hello: the state at t = 0, not stepped; this packet's PWM is not applied
             self._session, self._rate = True, rate
-        elif count == self._last_count:
+        elif count == self._last_count and self._last_reply is not None:
             c.duplicates += 1
             return self._last_reply
         else:

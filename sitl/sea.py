@@ -5,7 +5,7 @@ drawn from a spectrum with seeded random phases; its kinematics come from the
 shared module :mod:`bridge.models.waves` (paper Eqs. 5, 9, 10).
 
 Spectra are one-sided, in m²·s/rad over ω in rad/s. The JONSWAP form is the
-physically consistent one of REFERENCE §1 (Γ with its minus sign, scaled to the
+physically consistent one of docs/reference.md §1 (Γ with its minus sign, scaled to the
 stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 (Hz) and density (m²/Hz).
 """
@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.integrate import quad
+from scipy.optimize import brentq
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
 from bridge.csvio import read_numeric_csv
@@ -35,9 +36,11 @@ __all__ = [
     "MeasuredSpectrum",
     "Sea",
     "WaveBuoy",
+    "constrained_newwave",
     "discretise_spectrum",
     "jonswap_spectrum",
     "load_sea_config",
+    "newwave",
 ]
 
 
@@ -122,7 +125,7 @@ def discretise_spectrum(spectrum: Callable[[np.ndarray], np.ndarray], omega_lo: 
                         n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Split [ω_lo, ω_hi] into n equal bins and draw one frequency in each.
 
-    Returns (ω_i, A_i) with A_i = √(2 S(ω_i) Δω) (REFERENCE §2). Each frequency
+    Returns (ω_i, A_i) with A_i = √(2 S(ω_i) Δω) (docs/reference.md §2). Each frequency
     is drawn uniformly from its whole bin. Equal spacing would repeat exactly
     every 2π/Δω s; jitter over only part of the bin still leaves a partial
     repeat there (expected correlation 2/π for the middle half), while jitter
@@ -158,7 +161,16 @@ SEA_SCHEMA = {
         "x": Field("float", lo=-1.0e4, hi=1.0e4, default=-50.0),
         "sample_rate": Field("float", lo=0.1, hi=100.0, default=2.0),
     },
+    # A design wave embedded in the random sea (constrained NewWave): absent = no focusing
+    "focus": {
+        "crest": Field("float", lo=0.0, hi=30.0, lo_open=True, required=False, doc="m, above the still surface"),
+        "x": Field("float", lo=-1.0e4, hi=1.0e4, default=0.0, doc="m, earth x of the crest"),
+        "t": Field("float", lo=0.0, hi=1.0e5, required=False, doc="s, time of the crest"),
+    },
 }
+
+FOCUS_MAX_CREST_OVER_HS = 2.5
+"""Largest focused crest allowed, as a multiple of Hs: beyond it the Stokes expansion (and the sea) breaks."""
 
 
 def load_sea_config(name_or_path: str | Path) -> dict:
@@ -182,8 +194,107 @@ def load_sea_config(name_or_path: str | Path) -> dict:
     lo, hi = cfg["omega_band"]
     if not lo < 1.0 < hi:
         raise ConfigError(path, "omega_band", f"got {cfg['omega_band']}; allowed: [lo, hi] with lo < 1 < hi")
+    _check_focus(path, cfg)
     cfg["source"] = str(path)
     return cfg
+
+
+def _check_focus(path: Path, cfg: dict) -> None:
+    """``focus`` is all or nothing (crest and t together) and its crest at most 2.5 Hs (jonswap)."""
+    f = cfg["focus"]
+    if (f["crest"] is None) != (f["t"] is None):
+        key = "focus.t" if f["t"] is None else "focus.crest"
+        raise ConfigError(path, key, "required when focus is given (focus: {crest: m, x: m, t: s})")
+    hs = cfg["spectrum"]["hs"]
+    if f["crest"] is not None and cfg["spectrum"]["type"] == "jonswap" and f["crest"] > FOCUS_MAX_CREST_OVER_HS * hs:
+        raise ConfigError(path, "focus.crest", f"got {f['crest']!r}; allowed: (0, {FOCUS_MAX_CREST_OVER_HS * hs:g}] m "
+                                               f"({FOCUS_MAX_CREST_OVER_HS:g} Hs)")
+
+
+# ---------------------------------------------------------------------------- design waves
+
+def newwave(components: WaveComponents, crest: float, x0: float, t0: float) -> WaveComponents:
+    """The linear NewWave of a crest ``crest`` (m) at (x0 (m), t0 (s)) on the components' frequencies.
+
+    NewWave (Tromans, Anaturk & Hagemeijer 1991) is the most probable shape of
+    a large linear crest: component i carries α σ_i²/σ² with σ_i² = A_i²/2 its
+    variance and σ² = Σ σ_i², all in phase at the focus, so the elevation at x0
+    is α R(τ)/R(0), R the autocorrelation of the sea's spectrum.
+    """
+    var = 0.5 * components.amplitude**2
+    amp = crest * var / var.sum()
+    phase = -components.k * x0 + components.omega * t0
+    return WaveComponents(amp, components.omega.copy(), components.k.copy(), phase, components.water_depth,
+                          components.second_order)
+
+
+def _constrain_linear(c: WaveComponents, alpha: float, x0: float, t0: float, slope: float = 0.0) -> WaveComponents:
+    """Gaussian conditioning of the linear components on ζ₁(x0, t0) = α and ∂ζ₁/∂t (x0, t0) = ``slope`` (m/s).
+
+    With φ_i the phase at the focus, a_i = A_i cos φ_i and b_i = A_i sin φ_i (variance σ_i² each):
+    ζ₁(x0, t0) = Σ a_i and ∂ζ₁/∂t = Σ ω_i b_i. The constrained coefficients are
+    a_i + (α − Σ a_j) σ_i²/Σσ_j² and b_i − (Σ ω_j b_j) ω_i σ_i²/Σ ω_j² σ_j² (Taylor et al. 1997):
+    the random sea plus a NewWave of the missing crest, minus the record's own slope there
+    (a ``slope`` other than 0 lets :func:`constrained_newwave` cancel the 2nd-order terms' slope).
+    """
+    var = 0.5 * c.amplitude**2
+    phi = c.k * x0 - c.omega * t0 + c.phase
+    a, b = c.amplitude * np.cos(phi), c.amplitude * np.sin(phi)
+    a = a + (alpha - a.sum()) * var / var.sum()
+    b = b - (c.omega @ b - slope) * c.omega * var / (c.omega**2 @ var)
+    phase = np.arctan2(b, a) - c.k * x0 + c.omega * t0
+    return WaveComponents(np.hypot(a, b), c.omega.copy(), c.k.copy(), phase, c.water_depth, c.second_order)
+
+
+def _with_amplitudes(c: WaveComponents, amplitude: np.ndarray) -> WaveComponents:
+    return WaveComponents(amplitude, c.omega, c.k, c.phase, c.water_depth, c.second_order)
+
+
+def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0: float) -> WaveComponents:
+    """The random sea ``components`` re-phased so that its elevation at (x0, t0) is a crest of ``crest`` m.
+
+    Constrained NewWave (Taylor, Jonathan & Harland 1997) conditions the random
+    linear coefficients on the crest and a zero time slope
+    (:func:`_constrain_linear`). Here the phases are taken from that
+    conditioned sea and the amplitudes stay the spectrum's √(2 S(ω_i) Δω): with
+    fixed amplitudes and the ≈ 25 components that carry a JONSWAP sea's energy,
+    full conditioning would add the group's energy to every component and
+    raise the realised Hs by 10–30 % for a 4 m crest in W2; re-phasing keeps Hs
+    exactly while the group near the focus keeps NewWave's shape (correlation
+    ≈ 0.9 over ±20 s). The conditioning crest λ is solved (Brent, to 1e-13 m) so
+    that the total elevation ζ(x0, t0), Stokes 2nd-order terms included, is
+    ``crest``. Raises ValueError if the components cannot reach it (at most
+    Σ A_i when all are in phase).
+    """
+    if not crest > 0:
+        raise ValueError(f"the focused crest must be positive, got {crest}")
+    amp = components.amplitude
+    excess = lambda lam: float(  # noqa: E731
+        elevation(_with_amplitudes(_constrain_linear(components, lam, x0, t0), amp), x0, t0)) - crest
+    lo, hi = 0.0, crest
+    while excess(hi) < 0.0:
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e3 * crest:
+            raise ValueError(f"a crest of {crest} m is out of reach of these components (Σ A = {amp.sum():.2f} m)")
+    lam = brentq(excess, lo, hi, xtol=1e-13, rtol=4 * np.finfo(float).eps)
+    # Then the crest (ζ = crest) and the zero time slope of the total elevation together (Newton)
+    focused = lambda v: _with_amplitudes(_constrain_linear(components, v[0], x0, t0, v[1]), amp)  # noqa: E731
+    dt = 1e-4   # s: central difference for ∂ζ/∂t, error O(dt² ω³ A) < 1e-9 m/s
+
+    def residual(v: np.ndarray) -> np.ndarray:
+        z = elevation(focused(v), x0, np.array([t0 - dt, t0, t0 + dt]))
+        return np.array([z[1] - crest, (z[2] - z[0]) / (2.0 * dt)])
+
+    v = np.array([lam, 0.0])
+    for _ in range(30):
+        r = residual(v)
+        if abs(r[0]) < 1e-11 and abs(r[1]) < 1e-9:
+            break
+        jac = np.column_stack([(residual(v + e) - r) / 1e-6 for e in np.eye(2) * 1e-6])
+        v = v - np.linalg.solve(jac, r)
+    else:
+        raise ValueError(f"could not focus a crest of {crest} m at x = {x0} m, t = {t0} s")
+    return _with_amplitudes(_constrain_linear(components, v[0], x0, t0, v[1]), amp.copy())
 
 
 # ---------------------------------------------------------------------------- the sea
@@ -204,6 +315,7 @@ class Sea:
     seed: int
     buoy_x: float = -50.0
     buoy_rate: float = 2.0
+    focus: tuple[float, float, float] | None = None     # (crest m, x m, t s) of an embedded NewWave
 
     @classmethod
     def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
@@ -223,7 +335,13 @@ class Sea:
         phase = rng.uniform(0.0, 2.0 * np.pi, omega.size)
         comps = WaveComponents.from_spectrum_lines(amp, omega, phase, cfg["water_depth"], cfg["second_order"], g)
         hs_target = sp["hs"] if sp["type"] == "jonswap" else comps.hs()
-        return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, cfg["buoy"]["x"], cfg["buoy"]["sample_rate"])
+        fc = cfg.get("focus") or {}
+        focus = None
+        if fc.get("crest") is not None:
+            focus = (float(fc["crest"]), float(fc["x"]), float(fc["t"]))
+            comps = constrained_newwave(comps, *focus)
+        return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, cfg["buoy"]["x"], cfg["buoy"]["sample_rate"],
+                   focus)
 
     @classmethod
     def load(cls, case: str | Path, seed: int | None = None) -> Sea:

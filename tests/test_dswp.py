@@ -259,7 +259,7 @@ def test_group_velocity_against_numerical_derivative():
     for d in (5.0, 54.0, 500.0):
         k = wavenumber(omega, d)
         h = 1e-6 * k
-        w = lambda kk: np.sqrt(G * kk * np.tanh(kk * d))  # noqa: E731
+        w = lambda kk, d=d: np.sqrt(G * kk * np.tanh(kk * d))  # noqa: E731
         np.testing.assert_allclose(group_velocity(omega, d), (w(k + h) - w(k - h)) / (2 * h), rtol=1e-7)
 
 

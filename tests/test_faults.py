@@ -1,6 +1,7 @@
 """Faults injected on the links (a real UDP relay): the vehicle keeps flying, and what was lost is counted."""
 from __future__ import annotations
 
+import contextlib
 import socket
 import struct
 import time
@@ -30,10 +31,8 @@ def exchange(relay: FaultRelay, server: socket.socket, payloads: list[bytes], wa
         time.sleep(0.002)
     got, end = [], time.monotonic() + wait
     while time.monotonic() < end:
-        try:
+        with contextlib.suppress(TimeoutError):
             got.append(server.recv(100))
-        except TimeoutError:
-            pass
     client.close()
     return got
 

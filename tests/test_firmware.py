@@ -202,7 +202,7 @@ def test_bad_parameter_file_names_the_key(tmp_path):
         load_params(path)
     del data["WK_THR_MAX"]
     path.write_text(yaml.safe_dump(data))
-    with pytest.raises(ConfigError, match="'WK_THR_MAX'.*missing"):
+    with pytest.raises(ConfigError, match=r"'WK_THR_MAX'.*missing"):
         load_params(path)
 
 

@@ -19,11 +19,11 @@ from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_mission_config, load_vehicle_config
+from firmware_py.clocks import WallClock
 from firmware_py.firmware import Firmware
 from firmware_py.hal_json import JSONSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import load_params
-from firmware_py.scheduler import WallClock
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.harness.spec import RunSpec
 from sitl.physics_server import PhysicsServer, PortInUseError
@@ -105,7 +105,7 @@ def test_steps_hold_pwm_for_one_frame_and_report_consistent_state(client, server
     s = server.snapshot()
     wk = msg["wavekeep"]
     assert wk["eta"] == s.eta.tolist() and wk["nu"] == s.nu.tolist() and wk["thrust"] == s.thrust.tolist()
-    x, z, th = s.eta
+    _x, _z, th = s.eta
     u, w, q = s.nu
     du, dw, _ = server.plant.nu_dot
     g = server.plant.vehicle.g

@@ -66,7 +66,8 @@ def test_a_port_in_use_is_a_clear_error(tmp_path):
 def start_sim_process(tmp_path) -> subprocess.Popen:
     """``wavekeep sim`` (C-PD, a 600 s mission at real time) as a process, once its firmware is ready."""
     opt = options(tmp_path, controller="cpd", duration=600.0, speedup=1.0)
-    cmd = [sys.executable, "-m", "sitl.harness.cli", "sim", "--controller", "cpd", "--duration", "600", "--speedup", "1",
+    cmd = [sys.executable, "-m", "sitl.harness.cli", "sim", "--controller", "cpd", "--duration", "600",
+           "--speedup", "1",
            "--out", opt.out, "--plant-port", str(opt.plant_port), "--gcs-port", str(opt.gcs_port),
            "--zenoh-port", str(opt.zenoh_port)]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -66,7 +66,8 @@ def test_state_rates_match_the_matrix_form(vehicle):
     for _ in range(20):
         eta, nu, tau = rng.normal(size=3), rng.normal(size=3), rng.normal(size=3) * 10
         eta[1] = 5.0 + abs(eta[1])   # submerged
-        rhs = tau - coriolis_matrix(vehicle, nu) @ nu - damping_matrix(vehicle, nu) @ nu - restoring_forces(vehicle, eta)
+        rhs = (tau - coriolis_matrix(vehicle, nu) @ nu - damping_matrix(vehicle, nu) @ nu
+               - restoring_forces(vehicle, eta))
         expected = np.concatenate([J(eta) @ nu, np.linalg.solve(vehicle.M, rhs)])
         np.testing.assert_allclose(state_rates(vehicle, np.concatenate([eta, nu]), tau), expected, atol=1e-12)
 
@@ -256,7 +257,8 @@ def test_still_water_hydrodynamics_are_eq2_damping_and_added_mass_coriolis(vehic
     for _ in range(10):
         u, w, q = rng.normal(size=3)
         nu = np.array([u, w, q])
-        M_RB_part = np.array([[0, 0, vehicle.mass * w], [0, 0, -vehicle.mass * u], [-vehicle.mass * w, vehicle.mass * u, 0]])
+        m = vehicle.mass
+        M_RB_part = np.array([[0, 0, m * w], [0, 0, -m * u], [-m * w, m * u, 0]])
         C_A = coriolis_matrix(vehicle, nu) - M_RB_part
         expected = -(C_A @ nu) - damping_matrix(vehicle, nu) @ nu
         np.testing.assert_allclose(hydrodynamic_load(vehicle, u, w, q, None), expected, atol=1e-12)

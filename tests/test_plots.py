@@ -34,16 +34,16 @@ def synthetic_run(case: str, label: str, duration: float = 20.0, rate: float = 2
     dofs = ("surge", "heave", "pitch")
     results = {
         "case": case, "label": label, "seed": seed,
-        "rmse": dict(zip(dofs, rng.uniform(0.05, 0.5, 3).tolist())),
-        "max_abs_error": dict(zip(dofs, rng.uniform(0.5, 2.0, 3).tolist())),
-        "mean_power_w": dict(zip(dofs, rng.uniform(10.0, 500.0, 3).tolist())),
+        "rmse": dict(zip(dofs, rng.uniform(0.05, 0.5, 3).tolist(), strict=False)),
+        "max_abs_error": dict(zip(dofs, rng.uniform(0.5, 2.0, 3).tolist(), strict=False)),
+        "mean_power_w": dict(zip(dofs, rng.uniform(10.0, 500.0, 3).tolist(), strict=False)),
     }
     return RunResult(results, ts)
 
 
 @pytest.fixture(scope="module")
 def nine_runs() -> list[RunResult]:
-    return [synthetic_run(c, label, seed=i) for i, (c, label) in enumerate((c, l) for c in CASES for l in LABELS)]
+    return [synthetic_run(c, label, seed=i) for i, (c, label) in enumerate((c, lab) for c in CASES for lab in LABELS)]
 
 
 def assert_png(path: Path, min_bytes: int = 10_000) -> None:
@@ -100,7 +100,7 @@ def test_plot_reproduce_missing_run_raises(tmp_path, nine_runs, missing):
 
 def test_plot_reproduce_duplicate_run_raises(tmp_path, nine_runs):
     with pytest.raises(ValueError):
-        plot_reproduce(nine_runs + [nine_runs[0]], tmp_path)
+        plot_reproduce([*nine_runs, nine_runs[0]], tmp_path)
 
 
 def test_write_run_plots_a_real_short_mission(tmp_path):

@@ -316,7 +316,7 @@ def test_accelerations_are_time_derivatives(seas):
     # single linear component, too
     c = single(1.0, 0.8, DEPTH)
     for sd in (0.0, 10.0):
-        u1, w1, ud1, wd1 = particle_kinematics(c, 5.0, sd, 4.0)
+        _u1, _w1, ud1, wd1 = particle_kinematics(c, 5.0, sd, 4.0)
         u2, w2, _, _ = particle_kinematics(c, 5.0, sd, 4.0 + h)
         u0, w0, _, _ = particle_kinematics(c, 5.0, sd, 4.0 - h)
         assert (u2 - u0) / (2 * h) == pytest.approx(ud1, abs=1e-7)
@@ -329,7 +329,7 @@ def test_kinematics_broadcast_depth_with_x_and_t():
     s = np.array([0.0, 5.0, 10.0])
     u, w, ud, wd = particle_kinematics(c, 0.0, s, 0.0)
     ref = particle_kinematics(c, np.zeros(3), s, np.zeros(3))
-    for got, want in zip((u, w, ud, wd), ref):
+    for got, want in zip((u, w, ud, wd), ref, strict=False):
         assert got.shape == (3,)
         np.testing.assert_array_equal(got, want)
 
@@ -345,15 +345,15 @@ def _second_order_parts(A_scale):
     x = np.linspace(-30, 30, 5)[:, None]
     t = np.linspace(0, 20, 6)[None, :]
     s = 2.0
-    lin = (elevation(c1, x, t),) + particle_kinematics(c1, x, s, t)
-    non = (elevation(c2, x, t),) + particle_kinematics(c2, x, s, t)
+    lin = (elevation(c1, x, t), *particle_kinematics(c1, x, s, t))
+    non = (elevation(c2, x, t), *particle_kinematics(c2, x, s, t))
     return lin, non
 
 
 def test_second_order_terms_scale_as_amplitude_squared():
     lin_a, non_a = _second_order_parts(0.5)
     lin_b, non_b = _second_order_parts(0.05)
-    for la, na, lb, nb in zip(lin_a, non_a, lin_b, non_b):
+    for la, na, lb, nb in zip(lin_a, non_a, lin_b, non_b, strict=False):
         da = np.max(np.abs(na - la))
         db = np.max(np.abs(nb - lb))
         assert da > 0
@@ -439,7 +439,7 @@ def test_grid_equals_pointwise(second_order):
     t = np.sort(rng.uniform(0, 2000, 23))
     grid = particle_kinematics_grid(c, x, s, t)
     point = particle_kinematics(c, x[None, :], s[None, :], t[:, None])
-    for g_, p_ in zip(grid, point):
+    for g_, p_ in zip(grid, point, strict=False):
         assert g_.shape == (23, 17)
         np.testing.assert_allclose(g_, p_, rtol=0, atol=1e-12)
 
@@ -465,7 +465,8 @@ def test_measured_spectrum_csv_round_trip(tmp_path):
     s_f = 2 * np.pi * jonswap_spectrum(2 * np.pi * f, hs, tp, 3.3)
     path = tmp_path / "buoy.csv"
     path.write_text("frequency_hz,density_m2_per_hz\n"
-                    + "".join(f"{float(fi)!r},{float(si)!r}\n" for fi, si in zip(f, s_f)), encoding="utf-8")
+                    + "".join(f"{float(fi)!r},{float(si)!r}\n" for fi, si in zip(f, s_f, strict=True)),
+                    encoding="utf-8")
     m = MeasuredSpectrum.from_csv(path)
     np.testing.assert_allclose(m(2 * np.pi * f), jonswap_spectrum(2 * np.pi * f, hs, tp, 3.3), rtol=1e-12)
     # outside the measured band: zero
@@ -513,3 +514,109 @@ def test_buoy_sees_the_wave_earlier_by_dx_over_c():
     np.testing.assert_allclose(z_buoy, z_vehicle_later, atol=1e-10)
     # the same record is *not* what the vehicle sees at the same instant
     assert np.max(np.abs(z_buoy - sea.elevation(0.0, t))) > 0.1
+
+
+# ---------------------------------------------------------------------------- design waves (NewWave)
+
+def focused_config(case: str, crest: float, x: float = 0.0, t: float = 120.0) -> dict:
+    cfg = load_sea_config(case)
+    cfg["focus"] = {"crest": crest, "x": x, "t": t}
+    return cfg
+
+
+@pytest.mark.parametrize("case,crest,x0,seed", [("W1", 4.0, 0.0, 1), ("W2", 4.5, 0.0, 5), ("W2", 6.0, 30.0, 6),
+                                                ("W3", 4.0, -10.0, 2)])
+def test_focused_sea_has_the_requested_crest_where_and_when_asked(case, crest, x0, seed):
+    """ζ(x0, t0), Stokes 2nd-order terms included, is the crest to 1e-9 m, and it is a crest:
+    the highest elevation at x0 within ±Tp and over the 600 s record."""
+    sea = Sea.from_config(focused_config(case, crest, x0, 120.0), seed)
+    assert sea.components.second_order
+    assert float(sea.elevation(x0, 120.0)) == pytest.approx(crest, abs=1e-9)
+    tp = 2 * np.pi / sea.omega_peak
+    t = np.arange(0.0, 600.0, 0.02)
+    z = sea.elevation(x0, t)
+    near = np.abs(t - 120.0) < tp
+    assert z[near].max() <= crest + 1e-9 and z.max() <= crest + 1e-9
+    # and, in space, the wave at t0 peaks near x0 (within an eighth of the peak wavelength)
+    lam_p = 2 * np.pi / float(wavenumber(np.array([sea.omega_peak]), DEPTH)[0])
+    xs = x0 + np.linspace(-lam_p / 2, lam_p / 2, 2001)
+    assert abs(xs[np.argmax(sea.elevation(xs, 120.0))] - x0) < lam_p / 8
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_newwave_profile_is_the_spectrum_autocorrelation(case):
+    """NewWave at the focus: ζ(τ) = α R(τ)/R(0), R(τ) = ∫ S(ω) cos ωτ dω by quadrature of the
+    continuous JONSWAP over the discretised band (independent of the discrete components)."""
+    from sitl.sea import newwave
+    hs, tp = CASES[case]
+    cfg = load_sea_config(case)
+    sea = Sea.from_config(cfg, 3)
+    lin = WaveComponents(sea.components.amplitude, sea.components.omega, sea.components.k,
+                         sea.components.phase, DEPTH, False)
+    alpha, t0 = 4.0, 50.0
+    nw = newwave(lin, alpha, 0.0, t0)
+    wp = 2 * np.pi / tp
+    lo, hi = np.array(cfg["omega_band"]) * wp
+
+    def R(tau):
+        return quad(lambda w: float(jonswap_spectrum(w, hs, tp, cfg["spectrum"]["gamma"])) * np.cos(w * tau),
+                    lo, hi, limit=400, points=[wp])[0]
+    taus = np.linspace(-2 * tp, 2 * tp, 41)
+    truth = alpha * np.array([R(tau) for tau in taus]) / R(0.0)
+    got = elevation(nw, 0.0, t0 + taus)
+    assert got[20] == pytest.approx(alpha, abs=1e-12)
+    assert np.max(np.abs(got - truth)) < 0.015 * alpha
+    # a NewWave is symmetric in time about its crest and its troughs are shallower than the crest
+    np.testing.assert_allclose(got, got[::-1], atol=1e-9)
+    assert -0.75 * alpha < got.min() < 0.0
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_focused_sea_keeps_the_spectrum_hs_and_the_newwave_shape(case):
+    """Re-phasing keeps every amplitude √(2 S Δω): the realised Hs is the unfocused sea's (within 1 % of
+    Table I), the frequencies are unchanged, and near the focus the record follows NewWave."""
+    from sitl.sea import newwave
+    hs, tp = CASES[case]
+    for seed in (1, 5, 6):
+        plain = Sea.load(case, seed)
+        sea = Sea.from_config(focused_config(case, 4.0), seed)
+        assert sea.hs() == pytest.approx(hs, rel=0.01)
+        np.testing.assert_array_equal(sea.components.amplitude, plain.components.amplitude)
+        np.testing.assert_array_equal(sea.components.omega, plain.components.omega)
+        t = 120.0 + np.linspace(-2 * tp, 2 * tp, 401)
+        lin = WaveComponents(sea.components.amplitude, sea.components.omega, sea.components.k,
+                             sea.components.phase, DEPTH, False)
+        corr = np.corrcoef(elevation(lin, 0.0, t), elevation(newwave(lin, 4.0, 0.0, 120.0), 0.0, t))[0, 1]
+        assert corr > 0.8, (seed, corr)
+        # the record's 4σ over 600 s stays a sea of this Hs, crest or not (sampling within 15 %)
+        rec = sea.elevation(0.0, np.arange(0.0, 600.0, 0.25))
+        assert 4 * rec.std() == pytest.approx(hs, rel=0.15)
+
+
+def test_focused_sea_same_seed_same_sea():
+    a = Sea.from_config(focused_config("W2", 4.5), 11).components
+    b = Sea.from_config(focused_config("W2", 4.5), 11).components
+    np.testing.assert_array_equal(a.phase, b.phase)
+    assert Sea.from_config(focused_config("W2", 4.5), 11).focus == (4.5, 0.0, 120.0)
+
+
+@pytest.mark.parametrize("focus,key,allowed", [
+    ({"crest": 4.0}, "focus.t", "required"),
+    ({"t": 60.0}, "focus.crest", "required"),
+    ({"crest": -1.0, "t": 60.0}, "focus.crest", "(0, 30]"),
+    ({"crest": 9.0, "t": 60.0}, "focus.crest", "(0, 8.675] m"),
+    ({"crest": 4.0, "t": -5.0}, "focus.t", "[0, 100000]"),
+    ({"crest": 4.0, "t": 60.0, "phase": 1}, "focus.phase", "unknown key"),
+])
+def test_focus_config_errors_name_file_key_and_range(tmp_path, focus, key, allowed):
+    import yaml
+
+    from bridge.configfile import ConfigError, configs_dir
+    data = yaml.safe_load((configs_dir() / "sea" / "W2.yaml").read_text())
+    data["focus"] = focus
+    path = tmp_path / "focused.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError) as err:
+        load_sea_config(path)
+    msg = str(err.value)
+    assert str(path) in msg and key in msg and allowed in msg

@@ -7,11 +7,11 @@ import pytest
 from bridge.models.thrusters import KGF, T200Curve, ThrusterLayout, power_per_dof
 from bridge.schemas import load_vehicle_config
 
-# REFERENCE §5: 16 V samples, PWM µs → kgf (Blue Robotics T200 performance data)
+# docs/reference.md §5: 16 V samples, PWM µs → kgf (Blue Robotics T200 performance data)
 PUBLISHED = [(1100, -4.07), (1184, -2.94), (1308, -1.35), (1472, 0.0), (1528, 0.0), (1624, 0.87),
              (1728, 2.22), (1840, 4.25), (1864, 4.71), (1900, 5.25)]
 
-# REFERENCE §3: ArduSub AP_Motors6DOF, SUB_FRAME_VECTORED_6DOF (roll, pitch, yaw, throttle, forward, lateral)
+# docs/reference.md §3: ArduSub AP_Motors6DOF, SUB_FRAME_VECTORED_6DOF (roll, pitch, yaw, throttle, forward, lateral)
 ARDUSUB_FACTORS = np.array([
     [0, 0, +1, 0, -1, +1],
     [0, 0, -1, 0, -1, -1],

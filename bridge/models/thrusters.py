@@ -1,7 +1,7 @@
 """Blue Robotics T200 thrusters and the BlueROV2 Heavy thruster layout.
 
 * :class:`T200Curve` — PWM (µs) ↔ steady-state thrust (N) at 16 V through the
-  published samples (REFERENCE §5): monotone cubic (PCHIP) interpolation, flat
+  published samples (docs/reference.md §5): monotone cubic (PCHIP) interpolation, flat
   zero in the dead band, asymmetric forward/reverse limits.
 * :class:`ThrusterLayout` — positions and positive-thrust directions in the body
   FRD frame; the allocation matrix B (τ = B f) is derived from them as
@@ -70,7 +70,7 @@ class T200Curve:
         pos, neg = f > 0.0, f < 0.0
         out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)
         out[neg] = np.interp(f[neg], self._rev_f, self._rev_pwm)
-        return out if out.ndim else float(out)
+        return out if out.ndim else float(out)  # type: ignore[return-value]  # a scalar in, a scalar out
 
     @classmethod
     def from_config(cls, cfg: dict) -> T200Curve:

@@ -69,6 +69,8 @@ class VehicleParams:
     M_A: np.ndarray = field(init=False, repr=False)
     M: np.ndarray = field(init=False, repr=False)
     M_inv: np.ndarray = field(init=False, repr=False)
+    _M_RB_rows: tuple = field(init=False, repr=False)    # M_RB and M⁻¹ as nested float tuples: the scalar
+    _M_inv_rows: tuple = field(init=False, repr=False)   # hot path of state_rates reads them without numpy
 
     def __post_init__(self) -> None:
         m = self.mass
@@ -105,7 +107,8 @@ class VehicleParams:
         """Build from a validated ``configs/vehicle/*.yaml`` mapping (see :mod:`bridge.schemas`)."""
         mp, am, dp = cfg["mass_properties"], cfg["added_mass"], cfg["damping"]
         return cls(W=mp["W"], B=mp["B"], I_y=mp["I_y"], r_G=np.array(mp["r_G"]), r_B=np.array(mp["r_B"]),
-                   length=mp["length"], height=mp["height"], X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
+                   length=mp["length"], height=mp["height"],
+                   X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
                    X_qdot=am["X_qdot"], X_u=dp["X_u"], Z_w=dp["Z_w"], M_q=dp["M_q"], X_uu=dp["X_uu"],
                    Z_ww=dp["Z_ww"], M_qq=dp["M_qq"])
 
@@ -187,12 +190,13 @@ class BodyFlow:
     w: np.ndarray
     ax: np.ndarray
     az: np.ndarray
+    _stages: tuple = field(init=False, repr=False)      # per instant, as plain floats (see stage())
 
     def __post_init__(self) -> None:
         # The scalar hot path (state_rates) reads each instant as float lists: convert once
         xs, wts = self.xs.tolist(), self.wts.tolist()
         stages = tuple((xs, wts, u, w, ax, az) for u, w, ax, az in
-                       zip(self.u.tolist(), self.w.tolist(), self.ax.tolist(), self.az.tolist()))
+                       zip(self.u.tolist(), self.w.tolist(), self.ax.tolist(), self.az.tolist(), strict=False))
         object.__setattr__(self, "_stages", stages)
 
     def stage(self, i: int) -> tuple:
@@ -240,7 +244,7 @@ def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tupl
     else:
         xs, wts, up, wp, ax, az = flow
         X = Z = Mh = ub = wb = 0.0
-        for xj, wj, upj, wpj, axj, azj in zip(xs, wts, up, wp, ax, az):
+        for xj, wj, upj, wpj, axj, azj in zip(xs, wts, up, wp, ax, az, strict=False):
             urj, wrj = u - upj, w - wpj
             fz = p.Z_wdot * azj - (p.Z_w + p.Z_ww * abs(wrj)) * wrj
             X += wj * (p.X_udot * axj - (p.X_u + p.X_uu * abs(urj)) * urj)

@@ -1,6 +1,6 @@
 """Wave kinematics of a sum of regular components: linear + 2nd-order Stokes, finite depth.
 
-One module serves both sides (DESIGN "a physics formula lives in one place"):
+One module serves both sides (docs/architecture.md):
 the SITL sea evaluates it with the true components, the firmware's feed-forward
 with the forecast's components.
 
@@ -8,7 +8,7 @@ Conventions
 -----------
 * Waves travel in +x (earth frame, NED north). Phase θ_i = k_i x − ω_i t + ε_i.
 * Vertical position is given as *depth* s ≥ 0 below the still surface (NED z);
-  the elevation coordinate of REFERENCE §2 is z' = −s.
+  the elevation coordinate of docs/reference.md §2 is z' = −s.
 * Velocities and accelerations are returned in NED: u along +x, w positive *down*.
 * Accelerations are local (∂/∂t at a fixed point), as used in the Morison-type
   load of the paper's Eq. 11.
@@ -164,11 +164,11 @@ def _depth_factors_into(c: WaveComponents, s, ch: np.ndarray, sh: np.ndarray) ->
 
 def _depth_factors(c: WaveComponents, s):
     """(ch1, sh1, ch2, sh2) at depth(s) s, each of shape shape(s) + (N,); ch2/sh2 None for linear seas."""
-    O = 2 if c.second_order else 1
-    shape = np.shape(s) + (O, c.n)
+    orders = 2 if c.second_order else 1
+    shape = (*np.shape(s), orders, c.n)
     ch, sh = np.empty(shape), np.empty(shape)
     _depth_factors_into(c, s, ch, sh)
-    if O == 1:
+    if orders == 1:
         return ch[..., 0, :], sh[..., 0, :], None, None
     return ch[..., 0, :], sh[..., 0, :], ch[..., 1, :], sh[..., 1, :]
 
@@ -234,31 +234,31 @@ def particle_kinematics_grid(c: WaveComponents, x, depth, t):
     x = np.asarray(x, dtype=float)
     depth = np.asarray(depth, dtype=float)
     t = np.asarray(t, dtype=float)
-    O = 2 if c.second_order else 1
+    orders = 2 if c.second_order else 1
     P, T, N = x.size, t.size, c.n
     a = np.multiply.outer(x, c.k)
     a += c.phase                                     # (P, N)
     b = np.multiply.outer(t, c.omega)                # (T, N)
-    # cos/sin of each order, laid out (2, rows, O, N); order 2 by the double-angle formulas
-    ta = np.empty((2, P, O, N))
-    tb = np.empty((2, T, O, N))
+    # cos/sin of each order, laid out (2, rows, orders, N); order 2 by the double-angle formulas
+    ta = np.empty((2, P, orders, N))
+    tb = np.empty((2, T, orders, N))
     for trig, ang in ((ta, a), (tb, b)):
         np.cos(ang, out=trig[0, :, 0])
         np.sin(ang, out=trig[1, :, 0])
-        if O == 2:
+        if orders == 2:
             np.subtract(trig[0, :, 0] ** 2, trig[1, :, 0] ** 2, out=trig[0, :, 1])
             np.multiply(trig[0, :, 0], trig[1, :, 0], out=trig[1, :, 1])
             trig[1, :, 1] *= 2.0
-    # Series weights W[K, P, O, N]: u ~ cos θ, w↑ ~ sin θ, u̇ ~ sin θ, ẇ↑ ~ −cos θ
-    coef, rate = c._series_constants                 # (O, N) each
-    W = np.empty((4, P, O, N))
+    # Series weights W[K, P, orders, N]: u ~ cos θ, w↑ ~ sin θ, u̇ ~ sin θ, ẇ↑ ~ −cos θ
+    coef, rate = c._series_constants                 # (orders, N) each
+    W = np.empty((4, P, orders, N))
     _depth_factors_into(c, depth, W[0], W[1])
     W[:2] *= coef
     np.multiply(W[:2], rate, out=W[2:])
     # Contract over (order, component) in one matrix product per term: (4P, ON) @ (ON, T)
-    Wc = (W * ta[0]).reshape(4 * P, O * N)
-    Ws = (W * ta[1]).reshape(4 * P, O * N)
-    cb, sb = tb[0].reshape(T, O * N).T, tb[1].reshape(T, O * N).T
+    Wc = (W * ta[0]).reshape(4 * P, orders * N)
+    Ws = (W * ta[1]).reshape(4 * P, orders * N)
+    cb, sb = tb[0].reshape(T, orders * N).T, tb[1].reshape(T, orders * N).T
     cos_sum = (Wc @ cb + Ws @ sb).reshape(4, P, T)   # Σ W cos θ
     sin_sum = (Ws @ cb - Wc @ sb).reshape(4, P, T)   # Σ W sin θ
     return cos_sum[0].T, -sin_sum[1].T, sin_sum[2].T, cos_sum[3].T

@@ -231,7 +231,7 @@ def parse_campaign(data: Any, file: str, base: Path) -> CampaignSpec:
         rest["variants"] = [{k: x for k, x in v.items() if k != "overrides"} if isinstance(v, Mapping) else v
                             for v in raw_variants]
     cfg = validate(rest, CAMPAIGN_SCHEMA, file)
-    variants = _variants(cfg["variants"], raw_variants, file)
+    variants = _variants(cfg["variants"], raw_variants or [], file)
     if cfg["baseline"] not in {v.name for v in variants}:
         raise ConfigError(file, "baseline", f"got {cfg['baseline']!r}; allowed: one of the variants' names "
                           f"({', '.join(v.name for v in variants)})")

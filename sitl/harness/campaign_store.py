@@ -16,7 +16,7 @@ import json
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -54,7 +54,7 @@ class Journal:
     def __init__(self, out: str | Path):
         self.path = Path(out) / JOURNAL
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._fh = None
+        self._fh: TextIO | None = None
 
     def latest(self) -> dict[str, dict[str, Any]]:
         """The newest row per mission id already in the journal."""
@@ -76,9 +76,11 @@ class Journal:
         if self._fh is None:
             self._repair()
             self._fh = open(self.path, "a", encoding="utf-8")   # noqa: SIM115 (held open across appends; close())
-        self._fh.write(json.dumps(row, allow_nan=True) + "\n")
-        self._fh.flush()
-        os.fsync(self._fh.fileno())
+        fh = self._fh
+        assert fh is not None
+        fh.write(json.dumps(row, allow_nan=True) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
 
     def _repair(self) -> None:
         """Terminate a torn last line (left by a kill mid-write) so the next row starts on its own line."""

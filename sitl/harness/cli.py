@@ -67,7 +67,7 @@ def cmd_sea(args) -> int:
             tt = t[i:i + 2048]
             eta = sea.elevation(x, tt)
             u, wv, _, _ = particle_kinematics_grid(sea.components, [x], [depth], tt)
-            for row in zip(tt, eta, u[:, 0], wv[:, 0]):
+            for row in zip(tt, eta, u[:, 0], wv[:, 0], strict=False):
                 w.writerow([f"{row[0]:.4f}", f"{row[1]:.6f}", f"{row[2]:.6f}", f"{row[3]:.6f}"])
     print(f"wrote {out}: {n} samples at {rate:g} Hz, Hs(components) {sea.hs():.3f} m "
           f"(target {sea.hs_target:.3f} m), 4*std(eta) over the record is the realised value to check")
@@ -171,10 +171,10 @@ def cmd_reproduce(args) -> int:
 
 def cmd_campaign(args) -> int:
     """A grid of missions (sea states x seeds x variants) on Dask: rows, statistics across seeds, figures."""
+    import signal
+
     from .campaign import report_text, run_campaign
     from .campaign_spec import load_campaign_spec
-
-    import signal
 
     spec = load_campaign_spec(args.spec)
     # Ctrl-C stops the campaign (a shell starts background jobs with SIGINT ignored; a campaign wants it)
@@ -207,12 +207,13 @@ def cmd_live(args) -> int:
 
     key = None
     if args.signing_key:
-        from firmware_py.gcs import load_signing_key
+        from firmware_py.mavlink import load_signing_key
         key = load_signing_key(args.signing_key)
     sim = LiveSim(run_spec(args),
                   mavlink=args.mavlink or ["udpout:127.0.0.1:14550"], speedup=args.speedup, signing_key=key)
-    print(f"Wavekeep live: {args.case}, {args.controller}, MAVLink on {', '.join(args.mavlink or ['udpout:127.0.0.1:14550'])}"
-          f", speed-up {args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops.")
+    endpoints = ", ".join(args.mavlink or ["udpout:127.0.0.1:14550"])
+    print(f"Wavekeep live: {args.case}, {args.controller}, MAVLink on {endpoints}, speed-up {args.speedup:g}. "
+          "Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops.")
     with sim:
         t0 = time.monotonic()
         try:
@@ -356,7 +357,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
     p.add_argument("--forecast-snr-db", type=float, default=None)
     p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle", help="forecast service mode")
-    p.add_argument("--speedup", type=_positive, default=None, help="X times real time; default: as fast as the CPU allows")
+    p.add_argument("--speedup", type=_positive, default=None,
+                   help="X times real time; default: as fast as the CPU allows")
     p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's (600)")
     p.add_argument("--plant-port", type=int, default=9002)
     p.add_argument("--gcs-port", type=int, default=14550)

@@ -22,6 +22,7 @@ says what happened (0 done, 1 a child failed, 2 bad arguments or ports in use,
 """
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
@@ -79,7 +80,8 @@ def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
                 proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
-                raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options", 2)
+                raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options",
+                                  2) from None
             raise
 
 
@@ -89,7 +91,7 @@ class _Child:
     def __init__(self, name: str, argv: list[str], log: Path, env: dict):
         self.name = name
         self.log_path = log
-        self._log = open(log, "w")
+        self._log = open(log, "w")  # noqa: SIM115 — lives as long as the child; closed in stop()
         self.proc = subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env,
                                      start_new_session=True)
 
@@ -136,25 +138,46 @@ def _wait_ready(children: list[_Child], timeout: float) -> None:
 
 def launch(opt: SimOptions, progress=None) -> dict:
     """Run one mission across processes; returns the results document (also written to DIR)."""
-    os.environ["MAVLINK20"] = "1"
-    from pymavlink import mavutil
-
     spec = opt.spec
     sea = Sea.load(spec.case, seed=spec.seed)     # validates the case before anything starts
-    seed = sea.seed
     mcfg = load_mission_config(spec.mission)
     load_vehicle_config(spec.vehicle)
     duration = mcfg["duration"] if spec.duration is None else float(spec.duration)
-    rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]
+    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
     out = Path(opt.out)
     out.mkdir(parents=True, exist_ok=True)
     _check_port(opt.plant_port, "plant")
     _check_port(opt.gcs_port, "GCS")
-    ff = spec.ff
-    if ff:
+    if spec.ff:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
+    children: list[_Child] = []
+    try:
+        _start_processes(opt, sea.seed, duration, out, children)
+        wall = _fly(opt, setpoint, duration, f"sim {sea.name} {spec.label}", out, children, progress)
+    except KeyboardInterrupt:
+        raise LaunchError("interrupted", 130) from None
+    finally:
+        statuses = {c.name: c.stop() for c in reversed(children)}
+    rate = mcfg["control_rate"]
+    log = _merge_logs_of(opt, sea, duration, rate, out)
+    fw_stats = {}
+    with contextlib.suppress(OSError):
+        fw_stats = json.loads((out / "firmware_ticks.json").read_text())
+    results = mission_results(sea, spec, duration, rate, setpoint, log, fw_stats)
+    results.update({
+        "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
+        "speedup": opt.speedup, "wall_time_s": wall,
+        "speed_x_realtime": duration / wall if wall > 0 else None,
+        "processes": statuses,
+    })
+    write_run(RunResult(results, log), out)
+    return results
 
+
+def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child]) -> None:
+    """The forecast service (C-PD+FF only), the plant and the firmware, each waited for until ready."""
+    spec = opt.spec
     # One BLAS thread per process: three processes already share the cores
     env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
     netcfg = out / "network.yaml"
@@ -163,133 +186,126 @@ def launch(opt: SimOptions, progress=None) -> dict:
         "connect": [f"tcp/127.0.0.1:{opt.zenoh_port}"], "multicast_scouting": False,
         "gossip_scouting": True, "scouting_delay_ms": 0}}))
     cli = [sys.executable, "-m", "sitl.harness.cli"]
-    children: list[_Child] = []
-    gcs = None
-    tlog = None
-    try:
-        if ff:
-            fc = cli + ["forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
-                        "--network", str(netcfg), "--horizon", str(duration + 60.0)]
-            if spec.snr_db is not None:
-                fc += ["--snr-db", str(spec.snr_db)]
-            children.append(_Child("forecast", fc, out / "forecast.log", env))
-            _wait_ready(children, opt.ready_timeout_s)
-        plant = cli + ["plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port),
-                       "--mission", spec.mission, "--vehicle", spec.vehicle, "--log", str(out / "plant_truth.csv")]
-        if ff:
-            plant += ["--buoy-network", str(netcfg)]
-        children.append(_Child("plant", plant, out / "plant.log", env))
+    configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
+    if spec.ff:
+        fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
+              "--network", str(netcfg), "--horizon", str(duration + 60.0)]
+        if spec.snr_db is not None:
+            fc += ["--snr-db", str(spec.snr_db)]
+        children.append(_Child("forecast", fc, out / "forecast.log", env))
         _wait_ready(children, opt.ready_timeout_s)
-        firmware = cli + ["firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
-                          "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed),
-                          "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg),
-                          "--mission", spec.mission, "--vehicle", spec.vehicle]
-        if opt.speedup:
-            firmware += ["--speedup", str(opt.speedup)]
-        firmware += ["--set", f"WK_FF_ENABLE={1 if ff else 0}"]
-        # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
-        # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
-        # (a result must not depend on how fast the machine is).
-        firmware += ["--set", "FS_GCS_ENABLE=0"]
-        if not ff:
-            firmware += ["--no-forecast"]
-        for name, value in spec.overrides.items():
-            firmware += ["--set", f"{name}={value!r}"]
-        for s in opt.extra_params:
-            firmware += ["--set", s]
-        children.append(_Child("firmware", firmware, out / "firmware.log", env))
-        _wait_ready(children, opt.ready_timeout_s)
+    plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
+             "--log", str(out / "plant_truth.csv")]
+    if spec.ff:
+        plant += ["--buoy-network", str(netcfg)]
+    children.append(_Child("plant", plant, out / "plant.log", env))
+    _wait_ready(children, opt.ready_timeout_s)
+    firmware = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
+                "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
+                "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
+    if opt.speedup:
+        firmware += ["--speedup", str(opt.speedup)]
+    firmware += ["--set", f"WK_FF_ENABLE={1 if spec.ff else 0}"]
+    # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
+    # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
+    # (a result must not depend on how fast the machine is).
+    firmware += ["--set", "FS_GCS_ENABLE=0"]
+    if not spec.ff:
+        firmware += ["--no-forecast"]
+    for name, value in spec.overrides.items():
+        firmware += ["--set", f"{name}={value!r}"]
+    for s in opt.extra_params:
+        firmware += ["--set", s]
+    children.append(_Child("firmware", firmware, out / "firmware.log", env))
+    _wait_ready(children, opt.ready_timeout_s)
 
-        # ---------------------------------------------------------------- the ground station
-        gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{opt.gcs_port}", source_system=255,
-                                         source_component=190, dialect="ardupilotmega")
+
+class _GroundStation:
+    """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
+
+    def __init__(self, port: int, tlog: Path, children: list[_Child]):
+        os.environ["MAVLINK20"] = "1"
+        from pymavlink import mavutil
+        self.mavlink = mavutil.mavlink
+        self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255,
+                                               source_component=190, dialect="ardupilotmega")
         # .tlog: what MAVProxy and QGroundControl write — a big-endian µs timestamp before each frame.
         # (pymavlink's setup_logfile does not log on UDP links, so the launcher writes it.)
-        tlog = open(out / "mission.tlog", "wb")
+        self.tlog = open(tlog, "wb")  # noqa: SIM115 — closed in close()
+        self.children = children
+        self._last_hb = 0.0
 
-        def pump(until, what: str, timeout: float = 30.0):
-            """Read messages until ``until(msg)`` is true; watch the children meanwhile."""
-            end = time.monotonic() + timeout
-            last_hb = 0.0
-            while time.monotonic() < end:
-                if time.monotonic() - last_hb > 0.5:
-                    gcs.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID,
-                                           0, 0, 0)
-                    last_hb = time.monotonic()
-                for c in children:
-                    if not c.alive():
-                        raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
-                m = gcs.recv_match(blocking=True, timeout=0.05)
-                if m is None or m.get_type() == "BAD_DATA":
-                    continue
-                tlog.write(struct.pack(">Q", int(time.time() * 1e6) & ~3) + m.get_msgbuf())
-                if until(m):
-                    return m
-            raise LaunchError(f"timed out waiting for {what}")
+    def pump(self, until, what: str, timeout: float = 30.0):
+        """Read messages until ``until(msg)`` is true; heartbeat and watch the children meanwhile."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if time.monotonic() - self._last_hb > 0.5:
+                self.conn.mav.heartbeat_send(self.mavlink.MAV_TYPE_GCS, self.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                self._last_hb = time.monotonic()
+            for c in self.children:
+                if not c.alive():
+                    raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
+            m = self.conn.recv_match(blocking=True, timeout=0.05)
+            if m is None or m.get_type() == "BAD_DATA":
+                continue
+            self.tlog.write(struct.pack(">Q", int(time.time() * 1e6) & ~3) + m.get_msgbuf())
+            if until(m):
+                return m
+        raise LaunchError(f"timed out waiting for {what}")
 
-        pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
-        target = 1
-        if ff:
-            pump(lambda m: m.get_type() == "NAMED_VALUE_FLOAT" and m.name.rstrip("\x00") == "FF_AGE"
-                 and m.value >= 0, "a valid forecast on the vehicle", timeout=60.0)
+    def command(self, cmd: int, *params: float) -> None:
+        p = list(params) + [0.0] * (7 - len(params))
+        self.conn.mav.command_long_send(1, 1, cmd, 0, *p)
+        ack = self.pump(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, f"COMMAND_ACK {cmd}")
+        if ack.result != 0:
+            raise LaunchError(f"the vehicle refused command {cmd} (MAV_RESULT {ack.result})")
 
-        def command(cmd: int, *params: float) -> None:
-            p = list(params) + [0.0] * (7 - len(params))
-            gcs.mav.command_long_send(target, 1, cmd, 0, *p)
-            ack = pump(lambda m: m.get_type() == "COMMAND_ACK" and m.command == cmd, f"COMMAND_ACK {cmd}")
-            if ack.result != 0:
-                raise LaunchError(f"the vehicle refused command {cmd} (MAV_RESULT {ack.result})")
+    def close(self) -> None:
+        self.conn.close()
+        self.tlog.close()
 
-        command(mavutil.mavlink.MAV_CMD_DO_SET_MODE, 1, int(Mode.GUIDED))
-        gcs.mav.set_position_target_local_ned_send(0, target, 1, mavutil.mavlink.MAV_FRAME_LOCAL_NED,
-                                                   0b0000_1111_1111_1000, sp["x"], 0.0, sp["depth"],
-                                                   0, 0, 0, 0, 0, 0, 0, 0)
+
+def _fly(opt: SimOptions, setpoint: np.ndarray, duration: float, title: str, out: Path,
+         children: list[_Child], progress) -> float:
+    """Fly the mission as a ground station: GUIDED on the station, arm, follow to the end; the wall time."""
+    gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
+    mav = gcs.mavlink
+    try:
+        gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
+        if opt.spec.ff:
+            gcs.pump(lambda m: m.get_type() == "NAMED_VALUE_FLOAT" and m.name.rstrip("\x00") == "FF_AGE"
+                     and m.value >= 0, "a valid forecast on the vehicle", timeout=60.0)
+        gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, int(Mode.GUIDED))
+        gcs.conn.mav.set_position_target_local_ned_send(0, 1, 1, mav.MAV_FRAME_LOCAL_NED, 0b0000_1111_1111_1000,
+                                                        setpoint[0], 0.0, setpoint[1], 0, 0, 0, 0, 0, 0, 0, 0)
         time.sleep(0.2)
-        command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
         t_wall0 = time.monotonic()
         end_ms = int(round(duration * 1000))
-        with ProgressBar(duration, f"sim {sea.name} {spec.label}",
-                         enabled=progress) as bar:
+        with ProgressBar(duration, title, enabled=progress) as bar:
             def mission_over(m) -> bool:
                 if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
                     bar.update(m.time_boot_ms / 1000.0)
-                    return m.time_boot_ms >= end_ms
+                    return bool(m.time_boot_ms >= end_ms)
                 return False
-            pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
+            gcs.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
         wall = time.monotonic() - t_wall0
-        command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
+        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+        return wall
     finally:
-        statuses = {c.name: c.stop() for c in reversed(children)}
-        if gcs is not None:
-            gcs.close()
-        if tlog is not None:
-            tlog.close()
-    # ------------------------------------------------------------------ results, as wavekeep run
+        gcs.close()
+
+
+def _merge_logs_of(opt: SimOptions, sea: Sea, duration: float, rate: float, out: Path) -> np.ndarray:
+    """The run's time series from the plant's truth log and the firmware's tick log in DIR."""
     truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
     ticks = np.loadtxt(out / "firmware_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
     n = int(round(duration * rate)) - 1
     forecast = None
-    if spec.forecast_source == "oracle":   # (DSWP forecasts live in the forecast service; not logged here)
-        _, forecast_seed = derive_seeds(seed)
-        forecast = oracle_forecast(sea.components, spec.snr_db, np.random.default_rng(forecast_seed))
-    log = _merge_logs(truth, ticks, n, sea, forecast)
-    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
-    fw_stats = {}
-    try:
-        fw_stats = json.loads((out / "firmware_ticks.json").read_text())
-    except OSError:
-        pass
-    results = {
-        **mission_results(sea, spec, duration, rate, setpoint, log, fw_stats),
-        "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
-        "speedup": opt.speedup, "wall_time_s": wall,
-        "speed_x_realtime": duration / wall if wall > 0 else None,
-        "processes": statuses,
-    }
-    write_run(RunResult(results, log), out)
-    return results
+    if opt.spec.forecast_source == "oracle":   # (DSWP forecasts live in the forecast service; not logged here)
+        _, forecast_seed = derive_seeds(sea.seed)
+        forecast = oracle_forecast(sea.components, opt.spec.snr_db, np.random.default_rng(forecast_seed))
+    return _merge_logs(truth, ticks, n, sea, forecast)
 
 
 def _merge_logs(truth: np.ndarray, ticks: np.ndarray, n: int, sea, forecast) -> np.ndarray:

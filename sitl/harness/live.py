@@ -11,8 +11,9 @@ from __future__ import annotations
 import os
 import threading
 
+from firmware_py.clocks import LockstepPacedClock
 from firmware_py.params import ParameterTable
-from firmware_py.scheduler import LockstepPacedClock, Task
+from firmware_py.scheduler import Task
 
 from .run import MissionSetup, build_mission
 from .spec import RunSpec
@@ -30,7 +31,7 @@ class LiveSim:
     def __init__(self, spec: RunSpec | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
                  speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None,
                  realtime: bool = False):
-        from firmware_py.gcs import MavlinkLink
+        from firmware_py.mavlink import MavlinkLink
 
         self.setup: MissionSetup = build_mission(spec or RunSpec(), params=params, clock=LockstepPacedClock(speedup))
         # (the paced clock anchors the wall clock at the loop's first slot, so the grid starts at 0 then)

@@ -29,10 +29,10 @@ def station_keeping_metrics(t: np.ndarray, eta: np.ndarray, setpoint: np.ndarray
     rmse = np.sqrt(np.mean(err**2, axis=0))
     max_err = np.max(np.abs(err), axis=0)
     return {
-        "rmse": dict(zip(DOF, rmse.tolist())),
-        "max_abs_error": dict(zip(DOF, max_err.tolist())),
-        "mean_power_w": dict(zip(DOF, np.mean(power, axis=0).tolist())),
-        "energy_j": dict(zip(DOF, (power * dt[:, None]).sum(axis=0).tolist())),
+        "rmse": dict(zip(DOF, rmse.tolist(), strict=False)),
+        "max_abs_error": dict(zip(DOF, max_err.tolist(), strict=False)),
+        "mean_power_w": dict(zip(DOF, np.mean(power, axis=0).tolist(), strict=False)),
+        "energy_j": dict(zip(DOF, (power * dt[:, None]).sum(axis=0).tolist(), strict=False)),
     }
 
 

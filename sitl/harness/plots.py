@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -67,7 +68,8 @@ def _window(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
     return (t >= lo) & (t <= hi) if hi > lo else np.ones_like(t, dtype=bool)
 
 
-def _figure(nrows: int, ncols: int, size: tuple[float, float], sharex: bool | str = False) -> tuple[Figure, np.ndarray]:
+def _figure(nrows: int, ncols: int, size: tuple[float, float],
+            sharex: bool | Literal["none", "all", "row", "col"] = False) -> tuple[Figure, np.ndarray]:
     """A headless Agg-backed figure (size in inches) and its axes as a 2-D array."""
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
@@ -115,7 +117,7 @@ def plot_run(result: RunResult, path: str | Path) -> Path:
         ax.plot(t, fc, color="tab:orange", lw=0.8, ls="--", label="forecast η")
     ax.set_ylabel("elevation η (m)")
     ax.legend(loc="upper right", fontsize=8)
-    for ax, dof in zip(axes[1:, 0], DOF):
+    for ax, dof in zip(axes[1:, 0], DOF, strict=False):
         ax.plot(t, _error(result, dof), color="k", lw=1.1, label="truth")
         ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.6, label="EKF estimate")
         _zero_line(ax, "setpoint")
@@ -146,9 +148,9 @@ def plot_time_history(runs: Sequence[RunResult], path: str | Path, case: str = "
     for label, run in sel.items():
         t = _col(run, "t")
         m = _window(t, window)
-        for ax, dof in zip(axes[1:, 0], DOF):
+        for ax, dof in zip(axes[1:, 0], DOF, strict=False):
             ax.plot(t[m], _error(run, dof)[m], label=label, **_STYLE[label])
-    for ax, dof in zip(axes[1:, 0], DOF):
+    for ax, dof in zip(axes[1:, 0], DOF, strict=False):
         _zero_line(ax)
         ax.set_ylabel(_DOF_AXES[dof][4])
     axes[1, 0].legend(loc="upper right", fontsize=8, ncols=3)
@@ -232,7 +234,7 @@ def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
     fig, axes = _figure(1, 4, (14.0, 4.0))
     per = {dof: _metric(runs, "mean_power_w", dof) for dof in DOF}
     total = {label: list(np.sum([per[d][label] for d in DOF], axis=0)) for label in LABELS}
-    for ax, (name, vals) in zip(axes[0], [*per.items(), ("total", total)]):
+    for ax, (name, vals) in zip(axes[0], [*per.items(), ("total", total)], strict=False):
         _grouped_bars(ax, vals, "mean power (W)", "%.0f")
         ax.set_title(f"{name}")
     axes[0, 0].legend(fontsize=8, loc="upper left")

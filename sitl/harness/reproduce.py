@@ -16,6 +16,7 @@ import os
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,7 +33,7 @@ __all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "re
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
-PAPER = {
+PAPER: dict[str, Any] = {
     "mean_rmse_reduction_pct": {"ff_exact": 48.0, "ff_snr15": 17.0},
     "mean_max_error_reduction_pct": {"ff_exact": 28.0},
     "w1_rmse_reduction_pct": {"surge": 47.5, "heave": 48.2, "pitch": 58.6},
@@ -55,18 +56,21 @@ def summarise(results: list[dict]) -> dict:
                   for d in DOF} for c in CASES}
         out["rmse_reduction_pct"][key] = rr
         out["max_error_reduction_pct"][key] = mr
-    out["mean_rmse_reduction_pct"] = {k: float(np.mean([v for c in CASES for v in out["rmse_reduction_pct"][k][c].values()]))
+    rmse_red = out["rmse_reduction_pct"]
+    out["mean_rmse_reduction_pct"] = {k: float(np.mean([v for c in CASES for v in rmse_red[k][c].values()]))
                                       for k in ("ff_exact", "ff_snr15")}
     out["mean_max_error_reduction_pct"] = {
         k: float(np.mean([v for c in CASES for v in out["max_error_reduction_pct"][k][c].values()]))
         for k in ("ff_exact", "ff_snr15")}
     for (c, k), r in by.items():
         out["total_power_w"].setdefault(c, {})[k] = float(sum(r["mean_power_w"][d] for d in DOF))
-    out["ff_lowers_rmse_everywhere"] = all(v > 0 for c in CASES for v in out["rmse_reduction_pct"]["ff_exact"][c].values())
-    out["ff_draws_more_power"] = all(out["total_power_w"][c]["ff_exact"] > out["total_power_w"][c]["cpd"] for c in CASES)
-    out["worst_excursion"] = {f"{r['case']} {r['label']}": {"max_m": max(r["max_abs_error"]["surge"], r["max_abs_error"]["heave"]),
-                                                            "max_pitch_deg": float(np.degrees(r["max_abs_error"]["pitch"]))}
-                              for r in results}
+    power = out["total_power_w"]
+    out["ff_lowers_rmse_everywhere"] = all(v > 0 for c in CASES for v in rmse_red["ff_exact"][c].values())
+    out["ff_draws_more_power"] = all(power[c]["ff_exact"] > power[c]["cpd"] for c in CASES)
+    out["worst_excursion"] = {
+        f"{r['case']} {r['label']}": {"max_m": max(r["max_abs_error"]["surge"], r["max_abs_error"]["heave"]),
+                                      "max_pitch_deg": float(np.degrees(r["max_abs_error"]["pitch"]))}
+        for r in results}
     return out
 
 
@@ -90,12 +94,14 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
                          f"{mr['surge']:>10.1f}%{mr['heave']:>7.1f}%{mr['pitch']:>7.1f}%")
     m, mm = summary["mean_rmse_reduction_pct"], summary["mean_max_error_reduction_pct"]
     lines.append("")
-    lines.append(f"mean RMSE reduction: exact forecast {m['ff_exact']:.1f} % (paper ≈ {PAPER['mean_rmse_reduction_pct']['ff_exact']:.0f} %), "
-                 f"15 dB forecast {m['ff_snr15']:.1f} % (paper ≈ {PAPER['mean_rmse_reduction_pct']['ff_snr15']:.0f} %)")
-    lines.append(f"mean max-error reduction: exact {mm['ff_exact']:.1f} % (paper ≈ {PAPER['mean_max_error_reduction_pct']['ff_exact']:.0f} %), "
+    paper_rmse, paper_max = PAPER["mean_rmse_reduction_pct"], PAPER["mean_max_error_reduction_pct"]
+    lines.append(f"mean RMSE reduction: exact forecast {m['ff_exact']:.1f} % (paper ≈ {paper_rmse['ff_exact']:.0f} %), "
+                 f"15 dB forecast {m['ff_snr15']:.1f} % (paper ≈ {paper_rmse['ff_snr15']:.0f} %)")
+    lines.append(f"mean max-error reduction: exact {mm['ff_exact']:.1f} % (paper ≈ {paper_max['ff_exact']:.0f} %), "
                  f"15 dB {mm['ff_snr15']:.1f} %")
-    lines.append(f"FF lowers RMSE in all nine (case, DoF) pairs: {'yes' if summary['ff_lowers_rmse_everywhere'] else 'no'}; "
-                 f"FF draws more power than C-PD in every case: {'yes' if summary['ff_draws_more_power'] else 'no'}")
+    yes = {True: "yes", False: "no"}
+    lines.append(f"FF exact lowers RMSE in all nine (case, DoF) pairs: {yes[summary['ff_lowers_rmse_everywhere']]}; "
+                 f"FF draws more power than C-PD in every case: {yes[summary['ff_draws_more_power']]}")
     return "\n".join(lines)
 
 
@@ -127,8 +133,11 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
         raise RuntimeError("reproduce: missions failed: " + "; ".join(failed))
     wall = time.perf_counter() - t0
     empty = np.empty((0, len(TIMESERIES_COLUMNS)))
-    runs = [RunResult(got[t.mission_id].results, empty if got[t.mission_id].timeseries is None
-                      else got[t.mission_id].timeseries) for t in jobs]
+    runs = []
+    for t in jobs:
+        outcome = got[t.mission_id]
+        assert outcome.results is not None   # failures were raised above
+        runs.append(RunResult(outcome.results, empty if outcome.timeseries is None else outcome.timeseries))
     results = [r.results for r in runs]
     summary = summarise(results)
     doc = {"runs": results, "summary": summary, "paper": PAPER, "wall_time_s": wall}

@@ -22,11 +22,11 @@ from .spec import RunSpec
 
 __all__ = ["TIMESERIES_COLUMNS", "RunResult", "elevation_along", "mission_results", "write_results"]
 
-TIMESERIES_COLUMNS = tuple(
-    ["t", "x", "z", "theta", "u", "w", "q"]          # truth at the tick
-    + TICK_COLUMNS                                     # what the firmware's tick saw and did
-    + ["tauE_X", "tauE_Z", "tauE_M"]                   # true wave load at the end of the tick's period
-    + ["wave_eta", "forecast_eta"]                     # elevations at the vehicle's x
+TIMESERIES_COLUMNS = (
+    "t", "x", "z", "theta", "u", "w", "q",             # truth at the tick
+    *TICK_COLUMNS,                                     # what the firmware's tick saw and did
+    "tauE_X", "tauE_Z", "tauE_M",                      # true wave load at the end of the tick's period
+    "wave_eta", "forecast_eta",                        # elevations at the vehicle's x
 )
 """Columns of ``timeseries.csv``: one row per control tick."""
 

@@ -20,11 +20,11 @@ from bridge.forecast import Forecast, derive_seeds, oracle_forecast
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_mission_config, load_vehicle_config
+from firmware_py.clocks import Clock
 from firmware_py.firmware import Firmware, tick_row
 from firmware_py.hal import InProcessSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
-from firmware_py.scheduler import Clock
 from sitl.plant import Plant
 from sitl.sea import Sea
 

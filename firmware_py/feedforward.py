@@ -1,0 +1,183 @@
+"""Wave feed-forward: the forecast's flow at the body → the feed-forward wrench τ_FF.
+
+Paper Eq. 12 adds τ_FF = −τ̂_E to the cascaded PD's command, with τ̂_E the wave
+load of Eq. 11 predicted from the forecast. Three laws, selected by
+``WK_FF_MODE`` (docs/feedforward.md):
+
+* **0, paper.** τ̂_E = F_h(0, flow): the plant's own load model
+  (:func:`~bridge.models.vehicle.hydrodynamic_load`, nominal parameters) for
+  the vehicle *holding station* (ν = 0) at the estimated pose, at the end of
+  the control period. When a wave group carries the vehicle with the water
+  this predicts the full relative flow: loads the vehicle does not feel, and
+  in pitch a Munk moment (X_u̇ − Z_ẇ) u_p w_p larger than the pitch authority.
+* **1, robust.** The load at the filtered estimated velocity ν̄, as the
+  relative-velocity model says it acts: P(ν̄) = F_h(ν̄, flow) + D(ν̄) ν̄, i.e.
+  everything hydrodynamic except the vehicle's own still-water damping (which
+  the feedback relies on). In pitch that is the strip moment plus the Munk
+  moment of the *relative* velocity (X_u̇ − Z_ẇ)·… ū_r w̄_r, which vanishes
+  when the vehicle moves with the water. Then a per-axis authority limit
+  ``WK_FF_LIM_*``·τ_max, so the feedback keeps headroom, and a consistency
+  monitor: the load the EKF's motion reveals, d = M ν̂̇ + C_RB(ν̂) ν̂ + g(η̂)
+  − τ_thr + D(ν̂) ν̂, is compared with P(ν̂) (both low-passed over
+  ``WK_FF_MON_TC``); where they disagree by more than ``WK_FF_MON_THR``·τ_max
+  the axis' weight fades (to ``WK_FF_W_MIN`` at twice the threshold) within a
+  few ticks and recovers over ``WK_FF_MON_TC``. The firmware announces a fade
+  by STATUSTEXT and logs the weights.
+* **2, wave part at the estimated velocity.** τ̂_E = F_h(ν̄, flow) − F_h(ν̄, still):
+  a measured alternative (it still tips the vehicle: the wave part of the Munk
+  moment is −Munk(ν̄) when the vehicle moves with the water).
+
+A forecast that evaluates to a non-finite load (e.g. at a diverged pose) is
+no forecast: it is counted in :attr:`WaveFeedForward.faults` and the tick runs
+without feed-forward.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bridge.models.vehicle import BodyFlow, VehicleParams, hydrodynamic_load, restoring_forces
+
+from .params import ParameterTable
+
+__all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward"]
+
+FF_MODES = {0: "paper", 1: "robust", 2: "wave part at the estimated velocity"}
+"""``WK_FF_MODE`` values and their names."""
+
+
+@dataclass(frozen=True)
+class FeedForwardOutput:
+    """One tick's feed-forward, body frame [X (N), Z (N), M (N m)].
+
+    ``tau_e_hat`` is the predicted load, ``tau_ff`` the wrench handed to the
+    controller (before its ``WK_FF_GAIN``; None when inactive), ``active``
+    whether there is one, ``weight`` the monitor's per-axis weight (ones
+    unless the robust law faded an axis).
+    """
+
+    tau_e_hat: np.ndarray
+    tau_ff: np.ndarray | None
+    active: bool
+    weight: np.ndarray
+
+
+def _lowpass(prev: np.ndarray | None, new: np.ndarray, h: float, tc: float) -> np.ndarray:
+    """One step of a first-order low-pass filter (time constant tc s, step h s); tc = 0 passes through."""
+    if prev is None or tc <= 0.0:
+        return new.copy()
+    return prev + (1.0 - math.exp(-h / tc)) * (new - prev)
+
+
+class WaveFeedForward:
+    """Turns the forecast's flow at the body's strips into the feed-forward wrench; counts faults.
+
+    ``h`` is the control period (s). State carried between ticks (robust law):
+    the filtered velocity ν̄, the previous estimate and thrust for the load
+    observer, the monitor's filtered loads and its weights.
+    """
+
+    def __init__(self, vehicle: VehicleParams, params: ParameterTable, h: float = 0.05):
+        self.vehicle = vehicle
+        self.params = params
+        self.h = h
+        self.faults = 0                 # forecasts that evaluated to non-finite loads
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the filters and the monitor (FF off, or a new arming): weights back to 1."""
+        self._nu_f: np.ndarray | None = None
+        self._prev_nu: np.ndarray | None = None
+        self._obs_f: np.ndarray | None = None
+        self._pred_f: np.ndarray | None = None
+        self.weight = np.ones(3)
+
+    # ------------------------------------------------------------------ models
+    def _load(self, nu: np.ndarray, stage: tuple, mode: int) -> np.ndarray:
+        """The predicted load (N, N, N m) at body velocity ν in the flow ``stage``, per law ``mode``."""
+        u, w, q = (float(v) for v in nu)
+        p = self.vehicle
+        with_flow = np.array(hydrodynamic_load(p, u, w, q, stage))
+        if mode == 2:
+            return with_flow - np.array(hydrodynamic_load(p, u, w, q, None))
+        # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
+        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
+                            (p.M_q + p.M_qq * abs(q)) * q])
+        return with_flow + damping
+
+    def _observed_load(self, x_hat: np.ndarray, tau_thr: np.ndarray) -> np.ndarray | None:
+        """The load the estimate's motion reveals over the last period, in the terms of :meth:`_load` (mode 1).
+
+        d = M ν̂̇ + C_RB(ν̂) ν̂ + g(η̂) − τ_thr + D(ν̂) ν̂ (Eq. 2 solved for F_h, plus D(ν̂) ν̂),
+        ν̂̇ by differencing consecutive estimates and ν̂ their mean; ``tau_thr`` the mean thrust (N, N, N m).
+        """
+        nu_now = np.asarray(x_hat[3:], dtype=float)
+        if self._prev_nu is None:
+            self._prev_nu = nu_now.copy()
+            return None
+        p = self.vehicle
+        u, w, q = 0.5 * (nu_now + self._prev_nu)
+        m = p.M_RB
+        p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
+        c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
+        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
+                            (p.M_q + p.M_qq * abs(q)) * q])
+        d = p.M @ ((nu_now - self._prev_nu) / self.h) + c_rb + restoring_forces(p, x_hat[:3]) - tau_thr + damping
+        self._prev_nu = nu_now.copy()
+        return d
+
+    # ------------------------------------------------------------------ the tick
+    def update(self, flow: BodyFlow | None, x_hat: np.ndarray, tau_thr: np.ndarray | None = None) -> FeedForwardOutput:
+        """The feed-forward for this tick from ``flow`` (stages t, t + h/2, t + h) at the estimate x̂.
+
+        ``flow`` None (no forecast, or FF not wanted this tick) gives an inactive output and
+        resets the robust law's state. ``tau_thr`` is the mean thruster wrench over the last
+        period (for the monitor; None skips it this tick).
+        """
+        if flow is None:
+            self.reset()
+            return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
+        mode = int(self.params["WK_FF_MODE"])
+        if mode == 0:
+            # The paper's law: the vehicle holding station (ν = 0) at the end of the period
+            tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
+        else:
+            nu_hat = np.asarray(x_hat[3:], dtype=float)
+            self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
+            tau_e_hat = self._load(self._nu_f, flow.stage(2), mode)
+            if mode == 1:
+                self._monitor(flow, x_hat, tau_thr)
+        if not np.all(np.isfinite(tau_e_hat)):
+            self.faults += 1
+            self.reset()
+            return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
+        tau_ff = -tau_e_hat
+        if mode == 1:
+            lim = np.array(self.params.axes("WK_FF_LIM")) * np.array(self.params.axes("WK_TAU_MAX"))
+            tau_ff = self.weight * np.clip(tau_ff, -lim, lim)
+        return FeedForwardOutput(tau_e_hat, tau_ff, True, self.weight.copy())
+
+    def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None) -> None:
+        """Compare the predicted with the observed load over the last period; fade or restore the weights."""
+        p = self.params
+        thr = p["WK_FF_MON_THR"]
+        if thr <= 0.0 or tau_thr is None:
+            self.weight = np.ones(3)
+            return
+        observed = self._observed_load(x_hat, np.asarray(tau_thr, dtype=float))
+        if observed is None or not np.all(np.isfinite(observed)):
+            return
+        # The prediction at the start of this period's end (stage 0 = now) and the estimate's velocity
+        predicted = self._load(np.asarray(x_hat[3:], dtype=float), flow.stage(0), 1)
+        tc = p["WK_FF_MON_TC"]
+        self._obs_f = _lowpass(self._obs_f, observed, self.h, tc)
+        self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)
+        tau_max = np.array(p.axes("WK_TAU_MAX"))
+        disagreement = np.abs(self._obs_f - self._pred_f) / tau_max
+        w_min = p["WK_FF_W_MIN"]
+        target = np.clip(1.0 - (disagreement - thr) / thr, w_min, 1.0)
+        # Fade within a few ticks, recover over WK_FF_MON_TC
+        rate = np.where(target < self.weight, 1.0 - math.exp(-self.h / 0.1), 1.0 - math.exp(-self.h / tc))
+        self.weight = self.weight + rate * (target - self.weight)
