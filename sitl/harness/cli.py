@@ -273,6 +273,21 @@ def cmd_forecast(args) -> int:
     return 0
 
 
+def _add_campaign_parser(sub) -> None:
+    """``wavekeep campaign SPEC --out DIR [--scheduler tcp://HOST:PORT] [--workers N] ...``."""
+    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
+    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
+    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
+                   "default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
+    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--log-interval", type=_positive, default=10.0,
+                   help="seconds between progress lines when stderr is not a terminal")
+    p.set_defaults(func=cmd_campaign)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -300,17 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
 
-    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
-    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
-    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
-    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
-                   "default: a local cluster on 127.0.0.1")
-    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
-    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
-    p.add_argument("--log-interval", type=_positive, default=10.0,
-                   help="seconds between progress lines when stderr is not a terminal")
-    p.set_defaults(func=cmd_campaign)
+    _add_campaign_parser(sub)
 
     p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
     _add_common(p)
