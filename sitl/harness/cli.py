@@ -291,7 +291,16 @@ def _add_campaign_parser(sub) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_mission_parsers(sub)
+    _add_campaign_parser(sub)
+    _add_live_parsers(sub)
+    _add_process_parsers(sub)
+    _add_world_parsers(sub)
+    return parser
 
+
+def _add_mission_parsers(sub) -> None:
+    """``run`` and ``reproduce``: in-process missions."""
     p = sub.add_parser("run", help="fly one station-keeping mission in-process and report it")
     _add_common(p)
     p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
@@ -315,8 +324,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
 
-    _add_campaign_parser(sub)
 
+def _add_live_parsers(sub) -> None:
+    """``live`` and ``thrust``: a vehicle flying on the wall clock, and a client that drives it."""
     p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
     _add_common(p)
     p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
@@ -341,6 +351,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--arm", action="store_true", help="switch the vehicle to MANUAL and arm it first")
     p.set_defaults(func=cmd_thrust)
 
+
+def _add_process_parsers(sub) -> None:
+    """``forecast``, ``sim``, ``plant``, ``firmware``: the SITL processes and their launcher."""
     p = sub.add_parser("forecast", help="the wave forecast service (shore side) on zenoh")
     _add_common(p)
     p.add_argument("--site", default=None, help="site name for the key expressions (default: configs/network.yaml)")
@@ -369,6 +382,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)")
     p = sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)")
 
+
+def _add_world_parsers(sub) -> None:
+    """``sea`` and ``openloop``: the world alone."""
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)
     p.add_argument("--duration", type=_positive, default=600.0, help="record length (s)")
@@ -383,7 +399,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's")
     p.add_argument("--out", required=True, help="run folder for results.json and timeseries.csv")
     p.set_defaults(func=cmd_openloop)
-    return parser
 
 
 def cmd_sim(args) -> int:
