@@ -86,7 +86,9 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
     vcfg = load_vehicle_config(spec.vehicle)
     params = (params or load_params()).copy()
     for name, value in spec.overrides.items():
-        params.set(name, value)
+        why = params.set(name, value)
+        if why:
+            raise ValueError(f"parameter override {name}={value!r}: {why}")
     params.set("WK_FF_ENABLE", 1 if spec.ff else 0)
     rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]
