@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -124,6 +124,7 @@ class Firmware:
         self.failsafe_ekf = False
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
+        self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
         self._motor_test: MotorTest | None = None
         self._gcs_last_seen: float | None = None
         self._pending: tuple | None = None
@@ -191,10 +192,11 @@ class Firmware:
         self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
 
     def prearm_failure(self) -> str | None:
-        """Why the vehicle may not arm, or None."""
-        if not self.sensors_healthy:
+        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS)."""
+        checks = int(self.params.get("ARMING_CHECK", 1))
+        if checks & (1 | 2 | 16) and not self.sensors_healthy:
             return "sensors unhealthy"
-        if not self.ekf.converged():
+        if checks & (1 | 16) and not self.ekf.converged():
             return "EKF not converged"
         return None
 
@@ -357,6 +359,8 @@ class Firmware:
         t = slot_ns * 1e-9
         self._now = t
         frame = self.hal.read_sensors()
+        if self.depth_offset:
+            frame = replace(frame, depth=frame.depth - self.depth_offset)
         healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
         if healthy != self.sensors_healthy and self.ekf.initialised:
             self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
