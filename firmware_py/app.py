@@ -107,8 +107,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from bridge.configfile import ConfigError
     from bridge.forecast import derive_seeds
-    from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
 
     from .clocks import LockstepPacedClock
@@ -130,25 +128,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wavekeep firmware: {exc}", file=sys.stderr)
         return 2
     rate = mcfg["control_rate"]
-    sp = mcfg["setpoint"]
     sensor_seed, _ = derive_seeds(args.seed)
     hal = JSONSITLHAL(args.hal, params, 1.0 / rate, sensor_seed, timeout_s=params["SIM_JSON_TMO"])
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), [sp["x"], sp["depth"], sp["pitch"]], rate,
-                  mcfg["plant"]["strips"])
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     rows: list[list[float]] = []
     if args.log:
         from .firmware import tick_row
         fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
     link = MavlinkLink(fw, args.mavlink or ["udpout:127.0.0.1:14550"], signing_key=key)
-    session = forecast_link = None
-    if not args.no_forecast:
-        from bridge.zenoh_net import load_network_config, open_session
-
-        from .forecast_link import ZenohForecastLink
-        net = load_network_config(args.network)
-        session = open_session(net, "vehicle")
-        forecast_link = ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
+    session, forecast_link = (None, None) if args.no_forecast else _open_forecast_link(args, fw)
     try:
         hal.start()     # after the forecast subscriber exists: the plant's first buoy record may trigger a forecast
     except TimeoutError as exc:
@@ -178,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
             fw.rebuild_scheduler(t0_ns=start)
         fw.scheduler.run(stop=stop.is_set)
     finally:
-        stats = fw.scheduler.stats()
+        stats = {**fw.scheduler.stats(), "faults": fw.fault_counts()}
         if isinstance(hal.clock, LockstepPacedClock):
             stats["paced"] = {"speedup": hal.clock.speedup, "late_slots": hal.clock.late,
                               "max_lag_ms": hal.clock.max_lag_ns / 1e6}
@@ -189,6 +177,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wavekeep firmware: stopped after {stats['ticks']} ticks, {stats['overruns']} overruns; "
               f"link {link.counters}", flush=True)
     return 0
+
+
+def _open_forecast_link(args, fw):
+    """The vehicle's zenoh session and the forecast subscriber feeding the firmware's hand-off."""
+    from bridge.zenoh_net import load_network_config, open_session
+
+    from .forecast_link import ZenohForecastLink
+    net = load_network_config(args.network)
+    session = open_session(net, "vehicle")
+    return session, ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
 
 
 def _close(thing) -> None:

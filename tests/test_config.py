@@ -75,7 +75,7 @@ def test_unreadable_and_malformed_files(tmp_path):
         load_sea_config(bad)
     with pytest.raises(ConfigError, match="no such file"):
         load_sea_config(tmp_path / "missing.yaml")
-    with pytest.raises(ConfigError, match="known: W1, W2, (W2F, )?W3"):
+    with pytest.raises(ConfigError, match=r"known: W1, W2, (W2F, )?W3"):
         load_sea_config("W9")
 
 
@@ -100,6 +100,7 @@ def test_cli_reports_a_bad_case_and_exits_2(tmp_path, capsys):
     assert "'seed'" in capsys.readouterr().err
 
 
+@pytest.mark.processes
 def test_console_script_writes_the_sea_csv(tmp_path):
     out = tmp_path / "sea.csv"
     exe = Path(sys.executable).with_name("wavekeep")

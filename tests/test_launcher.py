@@ -14,14 +14,11 @@ import numpy as np
 import pytest
 
 from sitl.harness.launcher import LaunchError, SimOptions, launch
+from sitl.harness.ports import free_port
 from sitl.harness.run import run_mission, write_run
 from sitl.harness.spec import RunSpec
 
-
-def free_port(kind=socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+pytestmark = pytest.mark.processes   # starts the plant, firmware and forecast as processes
 
 
 def options(tmp_path, speedup=None, **spec) -> SimOptions:

@@ -215,8 +215,11 @@ def test_home_position_origin_and_do_set_home(v):
         gs.send(mavlink.MAVLink_mission_request_int_message(1, 1, 0, 0))          # mission item 0 is home
         assert gs.wait_type("MISSION_ITEM_INT", timeout=3.0).x == home.latitude
         # COMMAND_INT carries degE7; p1 1: the current position (north of the origin by the estimate)
+        since = gs.mark()
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, round(lat0 * 1e7), round(lon0 * 1e7), 0,
                           use_int=True).result == 0
+        # its HOME_POSITION follows the ACK: take it before asking again, so it is not mistaken for the next
+        assert gs.wait_type("HOME_POSITION", timeout=3.0, since=since).x == pytest.approx(0.0, abs=1e-6)
         since = gs.mark()
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 1).result == MAV_RESULT.ACCEPTED
         home = gs.wait_type("HOME_POSITION", timeout=3.0, since=since)
