@@ -12,12 +12,7 @@ import time
 import numpy as np
 
 from benchmarks.common import percentiles_us, write
-
-
-def _free_port(kind=socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from sitl.harness.ports import free_port as _free_port
 
 
 def mavlink_round_trip(n: int = 200) -> dict:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import socket
 import struct
 import tempfile
 import threading
@@ -30,12 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import write
-
-
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from sitl.harness.ports import free_port as _free_port
 
 
 def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
@@ -44,8 +38,6 @@ def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
 
     from bridge.forecast import derive_seeds, oracle_forecast
     from bridge.forecast_codec import ForecastDecodeError, decode_forecast, encode_forecast
-    from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
     from firmware_py.firmware import Firmware
     from firmware_py.hal_json import JSONSITLHAL
@@ -72,8 +64,7 @@ def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
     gcs_relay = FaultRelay(("127.0.0.1", gcs_port), faults, seed=12).start()
     sensor_seed, forecast_seed = derive_seeds(sea.seed)
     hal = JSONSITLHAL(("127.0.0.1", plant_relay.port), params, 1.0 / rate, sensor_seed, timeout_s=0.05)
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     good = encode_forecast(oracle_forecast(sea.components, None, np.random.default_rng(forecast_seed)))
     fw.forecast.offer(decode_forecast(good))
     link = MavlinkLink(fw, [f"udpout:127.0.0.1:{gcs_relay.port}"])

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing as mp
-import socket
 import time
 
 from benchmarks.common import write
+from sitl.harness.ports import free_port as _free_port
 
 
 def _burn(stop_at: float) -> None:
@@ -24,10 +24,6 @@ def _burn(stop_at: float) -> None:
         x += 1
 
 
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def one(seconds: float, loaded: bool, realtime: bool) -> dict:

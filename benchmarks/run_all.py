@@ -1,9 +1,10 @@
 """Run every benchmark (``make bench``)."""
-from benchmarks import bench_control, bench_links, bench_plant, bench_speed, bench_timing
+from benchmarks import bench_campaign, bench_control, bench_links, bench_plant, bench_speed, bench_timing
 
 if __name__ == "__main__":
     bench_plant.main()
     bench_control.main()
     bench_links.main()
     bench_timing.main()
+    bench_campaign.main()
     bench_speed.main([])

@@ -16,8 +16,10 @@ the same at every speed-up: the mission's clock starts when the vehicle is
 armed, as in the in-process runner.
 
 Time: the loop runs in lockstep with the plant — each tick is one plant step —
-as fast as the plant answers, or, with ``--speedup X``, paced at X times real
-time on the wall clock (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
+as fast as the plant answers (``--speedup 0``), or, with ``--speedup X``, paced at X times real
+time on the wall clock. With no ``--speedup``, a run given ``--mavlink`` explicitly (a person's
+ground station on the other end) runs in real time (``--speedup 1``), and one without runs
+unpaced; the launcher always says which it wants (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
 slow tick makes the run fall behind, never skips a step).
 """
 from __future__ import annotations
@@ -53,7 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="wavekeep firmware", description=__doc__.split("\n")[0])
     p.add_argument("--hal", type=_parse_hal, default=("127.0.0.1", 9002), help="sitl:HOST:PORT of the physics server")
     p.add_argument("--mavlink", action="append", help="MAVLink endpoint (repeatable); default udpout:127.0.0.1:14550")
-    p.add_argument("--speedup", type=float, default=None, help="pace at X times real time; default: lockstep, unpaced")
+    p.add_argument("--speedup", type=float, default=None,
+                   help="pace at X times real time; 0: lockstep, unpaced. Default: 1 (real time) when --mavlink "
+                        "is given (a ground station is flying it), else 0")
     p.add_argument("--seed", type=int, default=0, help="run seed (sensor noise stream)")
     p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
     p.add_argument("--params", default="params", help="parameter defaults (configs/firmware/NAME.yaml or a path)")
@@ -96,10 +100,13 @@ def _write_log(path: str, rows: list[list[float]], stats: dict) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.speedup is None:
+        args.speedup = 1.0 if args.mavlink else 0.0
+    if args.speedup < 0:
+        print("wavekeep firmware: --speedup must be >= 0", file=sys.stderr)
+        return 2
     from bridge.configfile import ConfigError
     from bridge.forecast import derive_seeds
-    from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from bridge.models.vehicle import VehicleParams
     from bridge.schemas import load_mission_config, load_vehicle_config
 
     from .clocks import LockstepPacedClock
@@ -121,25 +128,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wavekeep firmware: {exc}", file=sys.stderr)
         return 2
     rate = mcfg["control_rate"]
-    sp = mcfg["setpoint"]
     sensor_seed, _ = derive_seeds(args.seed)
     hal = JSONSITLHAL(args.hal, params, 1.0 / rate, sensor_seed, timeout_s=params["SIM_JSON_TMO"])
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), [sp["x"], sp["depth"], sp["pitch"]], rate,
-                  mcfg["plant"]["strips"])
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     rows: list[list[float]] = []
     if args.log:
         from .firmware import tick_row
         fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
     link = MavlinkLink(fw, args.mavlink or ["udpout:127.0.0.1:14550"], signing_key=key)
-    session = forecast_link = None
-    if not args.no_forecast:
-        from bridge.zenoh_net import load_network_config, open_session
-
-        from .forecast_link import ZenohForecastLink
-        net = load_network_config(args.network)
-        session = open_session(net, "vehicle")
-        forecast_link = ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
+    session, forecast_link = (None, None) if args.no_forecast else _open_forecast_link(args, fw)
     try:
         hal.start()     # after the forecast subscriber exists: the plant's first buoy record may trigger a forecast
     except TimeoutError as exc:
@@ -169,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
             fw.rebuild_scheduler(t0_ns=start)
         fw.scheduler.run(stop=stop.is_set)
     finally:
-        stats = fw.scheduler.stats()
+        stats = {**fw.scheduler.stats(), "faults": fw.fault_counts()}
         if isinstance(hal.clock, LockstepPacedClock):
             stats["paced"] = {"speedup": hal.clock.speedup, "late_slots": hal.clock.late,
                               "max_lag_ms": hal.clock.max_lag_ns / 1e6}
@@ -180,6 +177,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wavekeep firmware: stopped after {stats['ticks']} ticks, {stats['overruns']} overruns; "
               f"link {link.counters}", flush=True)
     return 0
+
+
+def _open_forecast_link(args, fw):
+    """The vehicle's zenoh session and the forecast subscriber feeding the firmware's hand-off."""
+    from bridge.zenoh_net import load_network_config, open_session
+
+    from .forecast_link import ZenohForecastLink
+    net = load_network_config(args.network)
+    session = open_session(net, "vehicle")
+    return session, ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
 
 
 def _close(thing) -> None:

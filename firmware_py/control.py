@@ -36,11 +36,8 @@ class ControlOutput:
     """Body-frame wrenches [X (N), Z (N), M (N m)]."""
 
     tau: np.ndarray        # the saturated total command
-    tau_pd: np.ndarray     # the C-PD part (τ_max · u_pd, before saturation)
     tau_ff: np.ndarray     # the feed-forward part as applied (g_ff · τ_FF)
-    velocity_demand: np.ndarray
-    error_body: np.ndarray
-    saturated: bool
+    saturated: bool        # some axis hit ±τ_max (logged per tick)
 
 
 class StationKeepingController:
@@ -72,5 +69,4 @@ class StationKeepingController:
             g_ref = restoring_forces(self.vehicle, np.asarray(setpoint, dtype=float))
             u = u + np.array([g_est[0], g_est[1], g_ref[2]]) / tau_max
         u_sat = np.clip(u, -1.0, 1.0)
-        return ControlOutput(tau=tau_max * u_sat, tau_pd=tau_max * u_pd, tau_ff=ff, velocity_demand=v_d,
-                             error_body=e, saturated=bool(np.any(u_sat != u)))
+        return ControlOutput(tau=tau_max * u_sat, tau_ff=ff, saturated=bool(np.any(u_sat != u)))

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -24,17 +24,18 @@ from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_node
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
-from .feedforward import WaveFeedForward
+from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
+from .feedforward import FeedForwardOutput, WaveFeedForward
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
-from .modes import AUTO_AXES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, SUPPORTED, Mode
+from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
 from .params import ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
 
-__all__ = ["TICK_COLUMNS", "Firmware", "PilotInput", "TickRecord", "tick_row"]
+__all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,7 @@ TICK_COLUMNS = (
     + ["sp_x", "sp_z", "sp_theta"]
     + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
     + [f"pwm{i}" for i in range(1, 9)]
-    + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M"]
+    + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
 
@@ -67,17 +68,18 @@ TICK_COLUMNS = (
 def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
-            float(r.ff_active), *r.ff_weight]
+            float(r.ff_active), *r.ff_weight, float(r.control.saturated)]
 
 
-@dataclass
-class PilotInput:
-    """The pilot's stick demands, normalised to [−1, 1]: forward (surge), up (heave), pitch up."""
+@dataclass(frozen=True)
+class Prediction:
+    """What a tick hands the next tick's estimator prediction: the wrench the mixer expected the
+    thrusters to give at the period's three RK4 stages (N, N, N m), and the forecast's flow at the
+    body over the period (None without a forecast), taken at tick time ``t`` (s)."""
 
-    surge: float = 0.0
-    up: float = 0.0
-    pitch: float = 0.0
-    t: float = -math.inf          # vehicle time of the last input (s)
+    tau_stages: np.ndarray
+    flow: BodyFlow | None
+    t: float
 
 
 @dataclass
@@ -120,20 +122,42 @@ class Firmware:
         self.armed = False
         self.pilot = PilotInput()
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
-        self.failsafe_gcs = False
-        self.failsafe_ekf = False
+        self.gcs_failsafe = GCSFailsafe(params, self.say)
+        self.ekf_failsafe = EKFFailsafe(params, self.say)
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
+        self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
         self._motor_test: MotorTest | None = None
-        self._gcs_last_seen: float | None = None
-        self._pending: tuple | None = None
-        self._pending_t: float | None = None
+        self._pending: Prediction | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
         self._ff_was_active = False
         self.loop_rate_hz = loop_rate_hz
         self.tasks = [Task("control", loop_rate_hz, self.control_task)]
         self.scheduler = Scheduler(hal.clock, loop_rate_hz, self.tasks)
+
+    @classmethod
+    def from_configs(cls, hal: HAL, params: ParameterTable, vehicle_cfg: dict, mission_cfg: dict,
+                     **kw) -> Firmware:
+        """The firmware for a vehicle config (``configs/vehicle``) and a mission config (``configs/mission``)."""
+        thrusters = vehicle_cfg["thrusters"]
+        sp = mission_cfg["setpoint"]
+        return cls(hal, params, VehicleParams.from_config(vehicle_cfg), ThrusterLayout.from_config(thrusters),
+                   T200Curve.from_config(thrusters), [sp["x"], sp["depth"], sp["pitch"]],
+                   mission_cfg["control_rate"], mission_cfg["plant"]["strips"], **kw)
+
+    @property
+    def flight_mode(self) -> FlightMode:
+        """The current mode's behaviour (:data:`~firmware_py.modes.FLIGHT_MODES`)."""
+        return FLIGHT_MODES[self.mode]
+
+    @property
+    def failsafe_gcs(self) -> bool:
+        return self.gcs_failsafe.active
+
+    @property
+    def failsafe_ekf(self) -> bool:
+        return self.ekf_failsafe.active
 
     def rebuild_scheduler(self, t0_ns: int | None = None) -> None:
         """A fresh scheduler on the HAL's (possibly new) clock, its grid starting at ``t0_ns``."""
@@ -148,9 +172,9 @@ class Firmware:
         tick looked; this makes the next prediction use it, so a networked start and an
         in-process start predict the same way.
         """
-        if self._pending is not None and self._pending_t is not None:
-            flow, _ = self.predicted_flow(self._pending_t)
-            self._pending = (self._pending[0], flow)
+        if self._pending is not None:
+            flow, _ = self.predicted_flow(self._pending.t)
+            self._pending = Prediction(self._pending.tau_stages, flow, self._pending.t)
 
     def add_task(self, task: Task) -> None:
         """Add a task (GCS link, SITL world...) after the control task; only before the loop starts."""
@@ -170,9 +194,9 @@ class Firmware:
             m = Mode(int(mode))
         except ValueError:
             return MAV_RESULT.FAILED
-        if m not in SUPPORTED:
+        if m not in FLIGHT_MODES:
             return MAV_RESULT.FAILED
-        if AUTO_AXES[m][0] and not self.ekf.converged():
+        if FLIGHT_MODES[m].holds[0] and not self.ekf.converged():
             self.say(MAV_SEVERITY.WARNING, f"{m.name} needs a position estimate")
             return MAV_RESULT.FAILED
         if m != self.mode:
@@ -180,21 +204,18 @@ class Firmware:
         return MAV_RESULT.ACCEPTED
 
     def _enter(self, m: Mode) -> None:
-        x = self.ekf.x if self.ekf.initialised else self.setpoint
-        if m in (Mode.POSHOLD, Mode.ALT_HOLD, Mode.SURFACE, Mode.STABILIZE):
-            # Hold where the mode was entered (ArduSub), level
-            self.setpoint = np.array([x[0], x[1], 0.0])
-        elif m == Mode.GUIDED and self.mode != Mode.GUIDED:
-            self.setpoint = np.array([x[0], x[1], 0.0])
+        pose = self.ekf.x if self.ekf.initialised else self.setpoint
+        self.setpoint = FLIGHT_MODES[m].enter(self.mode, pose, self.setpoint)
         self.mode = m
         self.controller.reset()
         self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
 
     def prearm_failure(self) -> str | None:
-        """Why the vehicle may not arm, or None."""
-        if not self.sensors_healthy:
+        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS)."""
+        checks = int(self.params.get("ARMING_CHECK", 1))
+        if checks & (1 | 2 | 16) and not self.sensors_healthy:
             return "sensors unhealthy"
-        if not self.ekf.converged():
+        if checks & (1 | 16) and not self.ekf.converged():
             return "EKF not converged"
         return None
 
@@ -246,19 +267,15 @@ class Firmware:
 
     def gcs_heartbeat(self) -> None:
         """The GCS (sysid SYSID_MYGCS) was heard."""
-        self._gcs_last_seen = self._now
-        if self.failsafe_gcs:
-            self.failsafe_gcs = False
-            self.say(MAV_SEVERITY.INFO, "GCS failsafe cleared")
+        self.gcs_failsafe.heard(self._now)
 
     def telemetry_snapshot(self) -> TelemetrySnapshot:
         """What a ground station is told, taken now (once per GCS tick, from the scheduler thread)."""
         return TelemetrySnapshot.from_firmware(self)
 
-    @property
-    def ff_faults(self) -> int:
-        """Forecasts that evaluated to non-finite loads (the feed-forward's fault count)."""
-        return self.feedforward.faults
+    def fault_counts(self) -> dict[str, int]:
+        """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral."""
+        return {"feedforward": self.feedforward.faults, "output": self.output_faults}
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
@@ -277,53 +294,20 @@ class Firmware:
             return None, -1
         return body_flow(active.components, self.ekf.x[:3], t + self._stage_offsets, self.strips), active.forecast.seq
 
-    def _check_gcs_failsafe(self, t: float) -> None:
-        action = int(self.params["FS_GCS_ENABLE"])
-        if (action == 0 or not self.armed or self._gcs_last_seen is None or self.failsafe_gcs
-                or t - self._gcs_last_seen <= self.params["FS_GCS_TIMEOUT"]):
-            return
-        self.failsafe_gcs = True
-        self.say(MAV_SEVERITY.CRITICAL, "GCS failsafe")
-        self._failsafe_action(action)
-
-    def _failsafe_action(self, action: int) -> None:
-        """ArduSub's failsafe actions: 1 warn (already said), 2 disarm, 3 depth hold, 4 surface."""
-        if action == 2:
+    def _failsafe_action(self, action: FailsafeAction) -> None:
+        """Carry out a failsafe's action (WARN: already said)."""
+        if action == FailsafeAction.DISARM:
             self.request_arm(False)
-        elif action == 3:
+        elif action == FailsafeAction.DEPTH_HOLD:
             self._enter(Mode.ALT_HOLD)
-        elif action == 4:
+        elif action == FailsafeAction.SURFACE:
             self._enter(Mode.SURFACE)
-
-    def _check_ekf_failsafe(self) -> None:
-        """A diverged estimator (non-finite, or position 1-σ beyond FS_EKF_THRESH) triggers FS_EKF_ACTION."""
-        if not self.ekf.initialised:
-            return
-        sig = self.ekf.sigma()
-        bad = (not np.all(np.isfinite(self.ekf.x)) or not np.all(np.isfinite(sig))
-               or max(sig[0], sig[1]) > self.params["FS_EKF_THRESH"])
-        if not bad:
-            if self.failsafe_ekf:
-                self.failsafe_ekf = False
-                self.say(MAV_SEVERITY.INFO, "EKF failsafe cleared")
-            return
-        if self.failsafe_ekf:
-            return
-        self.failsafe_ekf = True
-        action = int(self.params["FS_EKF_ACTION"])
-        if action == 0:
-            return
-        self.say(MAV_SEVERITY.CRITICAL, "EKF failsafe")
-        if not np.all(np.isfinite(self.ekf.x)):
-            self.ekf.initialised = False          # start again from the next sensor frame
-        if self.armed:
-            self._failsafe_action(action)
 
     def _applied_thrust(self) -> np.ndarray | None:
         """The mean thruster wrench the mixer expected over the last period (Simpson over its 3 stages), or None."""
         if self._pending is None:
             return None
-        st = np.asarray(self._pending[0], dtype=float)
+        st = np.asarray(self._pending.tau_stages, dtype=float)
         return (st[0] + 4.0 * st[1] + st[2]) / 6.0
 
     def _announce_fade(self, weight: np.ndarray) -> None:
@@ -345,37 +329,45 @@ class Firmware:
             return np.zeros(3)
         return np.array(self.params.axes("WK_TAU_MAX")) * np.array([p.surge, -p.up, p.pitch])
 
-    def _move_target(self, t: float) -> None:
-        """ALT_HOLD: the throttle stick moves the depth target; SURFACE: it rises at WK_SURF_RATE."""
-        if self.mode == Mode.ALT_HOLD and t - self.pilot.t <= self.params["WK_PILOT_TMO"]:
-            up = self.pilot.up if abs(self.pilot.up) > 0.05 else 0.0
-            self.setpoint[1] = max(0.0, self.setpoint[1] - up * self.params["WK_CLIMB_RATE"] * self.h)
-        elif self.mode == Mode.SURFACE:
-            self.setpoint[1] = max(0.0, self.setpoint[1] - self.params["WK_SURF_RATE"] * self.h)
-
     def control_task(self, slot_ns: int) -> None:
+        """One 20 Hz tick: sensors → estimate → feed-forward → mode target → C-PD → mixer → PWM."""
         t = slot_ns * 1e-9
         self._now = t
         frame = self.hal.read_sensors()
+        if self.depth_offset:
+            frame = replace(frame, depth=frame.depth - self.depth_offset)
+        self._estimate(frame, t)
+        if not self.ekf.initialised or not self.sensors_healthy:
+            # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
+            self._output(self.mixer.neutral(), None, t)
+            return
+        flow, seq = self.predicted_flow(t)
+        ff_active, flow, ff = self._feedforward(flow)
+        self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
+        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
+        mix = self._mix(control, t)
+        self._output(mix, flow, t)
+        self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
+                               ff.tau_e_hat, ff_active, seq, ff.weight)
+        if self.on_tick is not None:
+            self.on_tick(self.last)
+
+    def _estimate(self, frame: SensorFrame, t: float) -> None:
+        """Sensor health, the EKF's predict (last tick's hand-off) and update, and the failsafes."""
         healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
         if healthy != self.sensors_healthy and self.ekf.initialised:
             self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
                      "Sensors back" if healthy else "Sensors lost: thrusters neutral")
         self.sensors_healthy = healthy
         if self._pending is not None:
-            self.ekf.predict(*self._pending)
+            self.ekf.predict(self._pending.tau_stages, self._pending.flow)
         self.ekf.update(frame)
-        self._check_ekf_failsafe()
-        self._check_gcs_failsafe(t)
-        if not self.ekf.initialised or not healthy:
-            # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
-            mix = self.mixer.neutral()
-            self.hal.write_pwm(mix.pwm)
-            self._pending, self._pending_t = (mix.tau_stages, None), t
-            return
-        flow, seq = self.predicted_flow(t)
-        auto = AUTO_AXES[self.mode]
-        ff_active = flow is not None and self.armed and all(auto)
+        self._failsafe_action(self.ekf_failsafe.check(self.ekf, self.armed))
+        self._failsafe_action(self.gcs_failsafe.check(t, self.armed))
+
+    def _feedforward(self, flow: BodyFlow | None) -> tuple[bool, BodyFlow | None, FeedForwardOutput]:
+        """The FF wrench: on when a forecast is in use, the vehicle is armed and the mode holds every axis."""
+        ff_active = flow is not None and self.armed and all(self.flight_mode.holds)
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
@@ -384,27 +376,26 @@ class Firmware:
         if ff_active and not ff.active:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
             ff_active, flow = False, None
-        tau_e_hat = ff.tau_e_hat
-        self._move_target(t)
-        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
+        return ff_active, flow, ff
+
+    def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
+        """The thruster outputs: neutral disarmed, a motor test, or the held axes' control + the pilot's."""
         if not self.armed:
-            mix = self.mixer.neutral()
-        elif self._motor_test is not None and t <= self._motor_test.until:
+            return self.mixer.neutral()
+        if self._motor_test is not None and t <= self._motor_test.until:
             pwm = np.full(self.mixer.layout.n, NEUTRAL_PWM_US, dtype=np.int64)
             pwm[self._motor_test.motor] = self._motor_test.pwm
-            mix = self.mixer.output(pwm)
-        else:
-            self._motor_test = None
-            tau = np.where(auto, control.tau, self._pilot_wrench(t))
-            if np.all(np.isfinite(tau)):
-                mix = self.mixer.mix(tau)
-            else:   # never send a non-finite command to the thrusters
-                self.output_faults += 1
-                self.controller.reset()
-                mix = self.mixer.neutral()
+            return self.mixer.output(pwm)
+        self._motor_test = None
+        tau = np.where(self.flight_mode.holds, control.tau, self._pilot_wrench(t))
+        if np.all(np.isfinite(tau)):
+            return self.mixer.mix(tau)
+        # never send a non-finite command to the thrusters
+        self.output_faults += 1
+        self.controller.reset()
+        return self.mixer.neutral()
+
+    def _output(self, mix: MixerOutput, flow: BodyFlow | None, t: float) -> None:
+        """Write the PWM, and hand the next tick's prediction what this one commanded."""
         self.hal.write_pwm(mix.pwm)
-        self._pending, self._pending_t = (mix.tau_stages, flow), t
-        self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
-                               tau_e_hat, ff_active, seq, ff.weight)
-        if self.on_tick is not None:
-            self.on_tick(self.last)
+        self._pending = Prediction(mix.tau_stages, flow, t)

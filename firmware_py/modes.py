@@ -16,9 +16,16 @@ MANUAL     19  pilot / pilot / pilot
 """
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from enum import IntEnum
 
-__all__ = ["AUTO_AXES", "GUIDED_GROUP", "MAV_RESULT", "MAV_SEVERITY", "MAV_STATE", "MODE_NAMES", "Mode"]
+import numpy as np
+
+from .params import ParameterTable
+
+__all__ = ["AUTO_AXES", "FLIGHT_MODES", "GUIDED_GROUP", "MAV_RESULT", "MAV_SEVERITY", "MAV_STATE", "MODE_NAMES",
+           "FlightMode", "Mode", "PilotInput"]
 
 
 class Mode(IntEnum):
@@ -35,17 +42,94 @@ class Mode(IntEnum):
     SURFTRAK = 21
 
 
-SUPPORTED = (Mode.STABILIZE, Mode.ALT_HOLD, Mode.GUIDED, Mode.SURFACE, Mode.POSHOLD, Mode.MANUAL)
 MODE_NAMES = {int(m): m.name for m in Mode}
 
-AUTO_AXES = {
-    Mode.STABILIZE: (False, False, True),
-    Mode.ALT_HOLD: (False, True, True),
-    Mode.GUIDED: (True, True, True),
-    Mode.SURFACE: (False, True, True),
-    Mode.POSHOLD: (True, True, True),
-    Mode.MANUAL: (False, False, False),
-}
+
+@dataclass
+class PilotInput:
+    """The pilot's stick demands, normalised to [−1, 1]: forward (surge), up (heave), pitch up."""
+
+    surge: float = 0.0
+    up: float = 0.0
+    pitch: float = 0.0
+    t: float = -math.inf          # vehicle time of the last input (s)
+
+
+class FlightMode:
+    """One flight mode, as ArduSub's ``Mode`` classes: the axes it holds, its target on entry, how it moves.
+
+    ``holds`` says whether the automatic controller holds (surge, heave, pitch);
+    the other axes take the pilot's sticks straight to the mixer. Targets are
+    [x, depth, θ] (NED m, m, rad).
+    """
+
+    number: Mode
+    holds: tuple[bool, bool, bool]
+
+    def enter(self, previous: Mode, pose: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """The target on entering the mode from ``previous``, with the vehicle at ``pose`` [x, z, θ]."""
+        return target
+
+    def update_target(self, target: np.ndarray, pilot: PilotInput, t: float, params: ParameterTable,
+                      h: float) -> None:
+        """Move the target in place for one control period of ``h`` s (most modes hold it still)."""
+
+
+class _HoldWhereEntered(FlightMode):
+    def enter(self, previous: Mode, pose: np.ndarray, target: np.ndarray) -> np.ndarray:
+        return np.array([pose[0], pose[1], 0.0])   # hold where the mode was entered, level (ArduSub)
+
+
+class Manual(FlightMode):
+    number, holds = Mode.MANUAL, (False, False, False)
+
+
+class Stabilize(_HoldWhereEntered):
+    number, holds = Mode.STABILIZE, (False, False, True)
+
+
+class PosHold(_HoldWhereEntered):
+    number, holds = Mode.POSHOLD, (True, True, True)
+
+
+class AltHold(_HoldWhereEntered):
+    """Depth held; the throttle stick moves the depth target at up to WK_CLIMB_RATE."""
+
+    number, holds = Mode.ALT_HOLD, (False, True, True)
+
+    def update_target(self, target: np.ndarray, pilot: PilotInput, t: float, params: ParameterTable,
+                      h: float) -> None:
+        if t - pilot.t <= params["WK_PILOT_TMO"]:
+            up = pilot.up if abs(pilot.up) > 0.05 else 0.0
+            target[1] = max(0.0, target[1] - up * params["WK_CLIMB_RATE"] * h)
+
+
+class Surface(_HoldWhereEntered):
+    """The depth target rises to the surface at WK_SURF_RATE."""
+
+    number, holds = Mode.SURFACE, (False, True, True)
+
+    def update_target(self, target: np.ndarray, pilot: PilotInput, t: float, params: ParameterTable,
+                      h: float) -> None:
+        target[1] = max(0.0, target[1] - params["WK_SURF_RATE"] * h)
+
+
+class Guided(FlightMode):
+    """All axes held at the ground station's target (SET_POSITION_TARGET_LOCAL_NED); here on entry."""
+
+    number, holds = Mode.GUIDED, (True, True, True)
+
+    def enter(self, previous: Mode, pose: np.ndarray, target: np.ndarray) -> np.ndarray:
+        return target if previous == Mode.GUIDED else np.array([pose[0], pose[1], 0.0])
+
+
+FLIGHT_MODES: dict[Mode, FlightMode] = {m.number: m for m in
+                                        (Stabilize(), AltHold(), Guided(), Surface(), PosHold(), Manual())}
+"""The supported modes. Adding a mode is a class above and an entry here."""
+
+SUPPORTED = tuple(FLIGHT_MODES)
+
+AUTO_AXES = {number: mode.holds for number, mode in FLIGHT_MODES.items()}
 """Per supported mode: does the automatic controller hold (surge, heave, pitch)?"""
 
 GUIDED_GROUP = (Mode.AUTO, Mode.GUIDED, Mode.CIRCLE, Mode.POSHOLD)

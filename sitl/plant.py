@@ -134,6 +134,3 @@ class Plant:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""
         return power_per_dof(self.tau)
 
-    def pwm_for_wrench(self, tau) -> np.ndarray:
-        """Open-loop helper: PWM that would produce the planar wrench τ by pseudo-inverse allocation."""
-        return self.curve.pwm(np.linalg.pinv(self.B) @ np.asarray(tau, dtype=float))

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import gc
 import os
-import socket
 import threading
 import time
 
@@ -23,6 +22,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.modes import Mode
 from sitl.harness.live import LiveSim
+from sitl.harness.ports import free_port
 from sitl.harness.spec import RunSpec
 
 SUB_MODES = {0: "STABILIZE", 2: "ALT_HOLD", 4: "GUIDED", 9: "SURFACE", 16: "POSHOLD", 19: "MANUAL"}
@@ -30,10 +30,6 @@ SERVO = mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW
 POS_ONLY = 0b0000_1101_1111_1000        # type_mask: ignore velocity, acceleration, yaw, yaw rate
 
 
-def free_port(kind=socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class GroundStation:

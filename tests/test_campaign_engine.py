@@ -22,6 +22,7 @@ from sitl.harness.campaign import run_campaign
 from sitl.harness.campaign_spec import load_campaign_spec
 from sitl.harness.campaign_store import read_journal
 from sitl.harness.campaign_task import NONDETERMINISTIC, flatten_results
+from sitl.harness.ports import free_port
 from sitl.harness.run import run_mission
 
 pytestmark = pytest.mark.processes
@@ -79,10 +80,6 @@ def test_local_cluster_campaign_rows_failures_and_rerun(tmp_path):
     assert len(read_journal(out / "missions.jsonl")) == 6
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_for_workers(address: str, names: set[str], timeout: float = 60.0) -> None:
@@ -96,7 +93,7 @@ def wait_for_workers(address: str, names: set[str], timeout: float = 60.0) -> No
 
 
 def test_external_scheduler_and_two_workers(tmp_path):
-    port = free_port()
+    port = free_port(socket.SOCK_STREAM)
     address = f"tcp://127.0.0.1:{port}"
     with contextlib.ExitStack() as stack:
         logs = [stack.enter_context(open(tmp_path / f"{n}.log", "w")) for n in ("scheduler", "w1", "w2")]

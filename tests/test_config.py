@@ -100,6 +100,7 @@ def test_cli_reports_a_bad_case_and_exits_2(tmp_path, capsys):
     assert "'seed'" in capsys.readouterr().err
 
 
+@pytest.mark.processes
 def test_console_script_writes_the_sea_csv(tmp_path):
     out = tmp_path / "sea.csv"
     exe = Path(sys.executable).with_name("wavekeep")

@@ -18,6 +18,7 @@ from bridge.keys import check_site, forecast_key, service_token_key
 from bridge.zenoh_net import load_network_config, zenoh_config
 from firmware_py.forecast import ForecastHandoff
 from firmware_py.forecast_link import ZenohForecastLink
+from sitl.harness.ports import free_port
 from sitl.sea import Sea
 
 
@@ -87,17 +88,13 @@ def test_site_names_cannot_change_the_key():
             check_site(bad)
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture
 def sessions():
     import zenoh
     net = load_network_config()
-    ep = f"tcp/127.0.0.1:{free_port()}"
+    ep = f"tcp/127.0.0.1:{free_port(socket.SOCK_STREAM)}"
     service = zenoh.open(zenoh_config(net, listen=[ep]))
     vehicle = zenoh.open(zenoh_config(net, connect=[ep]))
     try:

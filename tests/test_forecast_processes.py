@@ -19,11 +19,9 @@ import pytest
 os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil
 
+from sitl.harness.ports import free_port
 
-def free_port(kind=socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+pytestmark = pytest.mark.processes   # starts the plant, firmware and forecast as processes
 
 
 def start(args, log: Path) -> subprocess.Popen:

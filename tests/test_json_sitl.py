@@ -16,8 +16,6 @@ import pytest
 
 from bridge.forecast import derive_seeds, oracle_forecast
 from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.clocks import WallClock
 from firmware_py.firmware import Firmware
@@ -245,8 +243,7 @@ def build_json_firmware(address, case="W1", controller="cpd_ff", timeout_s=None,
     setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
     sensor_seed, forecast_seed = derive_seeds(sea.seed)
     hal = JSONSITLHAL(address, params, 1.0 / rate, sensor_seed, timeout_s=timeout_s, speedup=speedup)
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     if controller == "cpd_ff":
         fw.forecast.offer(oracle_forecast(sea.components, None, np.random.default_rng(forecast_seed)))
     return hal, fw, setpoint
@@ -424,6 +421,7 @@ def test_dropped_packets_make_frames_unhealthy_then_recover(sea_w1):
 
 
 # ---------------------------------------------------------------------------- command line
+@pytest.mark.processes
 def test_main_serves_until_sigterm():
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.Popen([sys.executable, "-c", "import sys; from sitl.physics_server import main; "

@@ -14,14 +14,11 @@ import numpy as np
 import pytest
 
 from sitl.harness.launcher import LaunchError, SimOptions, launch
+from sitl.harness.ports import free_port
 from sitl.harness.run import run_mission, write_run
 from sitl.harness.spec import RunSpec
 
-
-def free_port(kind=socket.SOCK_DGRAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+pytestmark = pytest.mark.processes   # starts the plant, firmware and forecast as processes
 
 
 def options(tmp_path, speedup=None, **spec) -> SimOptions:
@@ -139,3 +136,19 @@ def test_real_time_mission_keeps_20_hz_on_the_wall_clock_and_the_same_result(tmp
     assert abs(drift) < 0.025                      # half a period over the whole run
     lag_s = stats["paced"]["max_lag_ms"] / 1e3
     assert gaps.max() < 0.05 + lag_s + 0.015       # no gap the firmware did not account for
+
+
+def test_sim_honours_the_mission_and_vehicle_configs(tmp_path):
+    """The plant and the firmware get the run's --mission and --vehicle, not the defaults."""
+    mission = tmp_path / "deep_station.yaml"
+    text = (Path(__file__).resolve().parents[1] / "configs" / "mission" / "station_keeping.yaml").read_text()
+    mission.write_text(text.replace("depth: 5.0", "depth: 8.0").replace("name: station_keeping", "name: deep"))
+    opt = options(tmp_path, case="W1", controller="cpd", duration=2.0, mission=str(mission))
+    sim = launch(opt)
+    ref = run_mission(RunSpec("W1", "cpd", duration=2.0, mission=str(mission)))
+    ts = np.loadtxt(Path(opt.out) / "timeseries.csv", delimiter=",", skiprows=1)
+    header = (Path(opt.out) / "timeseries.csv").read_text().splitlines()[0].split(",")
+    assert np.all(ts[:, header.index("sp_z")] == 8.0)          # the firmware's station
+    assert abs(ts[0, header.index("z")] - 8.0) < 0.05          # the plant released the vehicle there
+    for dof, v in ref.results["rmse"].items():
+        assert sim["rmse"][dof] == pytest.approx(v, abs=1e-9), dof

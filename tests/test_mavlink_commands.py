@@ -96,7 +96,7 @@ def test_disarmed_neutral_then_manual_control_and_rc_override_move_the_servos(v,
     s = [servos(m) for m in out if m.get_type() == "SERVO_OUTPUT_RAW"][-1]
     assert all(abs(p - 1500) > 50 for p in s[:4]) and all(abs(p - 1500) < 30 for p in s[4:])
     rc = [m for m in out if m.get_type() == "RC_CHANNELS"]
-    assert rc and rc[-1].chan5_raw == 1740 and rc[-1].chan3_raw == 1500
+    assert rc and rc[-1].chan5_raw == 1620 and rc[-1].chan3_raw == 1500     # 1500 + 400 × 0.6 × gain 0.5
     # RC override in ArduSub's channel order: 3 throttle up → the vertical thrusters (5-8)
     for _ in range(15):
         gs.send(mavlink.MAVLink_rc_channels_override_message(1, 1, 1500, 65535, 1800, 65535, 1500, 65535, 0, 0))
@@ -215,8 +215,11 @@ def test_home_position_origin_and_do_set_home(v):
         gs.send(mavlink.MAVLink_mission_request_int_message(1, 1, 0, 0))          # mission item 0 is home
         assert gs.wait_type("MISSION_ITEM_INT", timeout=3.0).x == home.latitude
         # COMMAND_INT carries degE7; p1 1: the current position (north of the origin by the estimate)
+        since = gs.mark()
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, round(lat0 * 1e7), round(lon0 * 1e7), 0,
                           use_int=True).result == 0
+        # its HOME_POSITION follows the ACK: take it before asking again, so it is not mistaken for the next
+        assert gs.wait_type("HOME_POSITION", timeout=3.0, since=since).x == pytest.approx(0.0, abs=1e-6)
         since = gs.mark()
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 1).result == MAV_RESULT.ACCEPTED
         home = gs.wait_type("HOME_POSITION", timeout=3.0, since=since)

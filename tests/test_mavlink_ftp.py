@@ -78,6 +78,7 @@ def _mavproxy_available() -> bool:
     return True
 
 
+@pytest.mark.processes
 @pytest.mark.skipif(not _mavproxy_available(), reason="MAVProxy not installed")
 def test_mavproxy_with_ftp_falls_back_to_the_parameter_protocol(tmp_path):
     """MAVProxy's param module tries MAVFTP first; the NAK sends it to PARAM_REQUEST_LIST with no stall."""

@@ -235,6 +235,7 @@ def _mavproxy_available() -> bool:
     return True
 
 
+@pytest.mark.processes
 @pytest.mark.skipif(not _mavproxy_available(),
                     reason="MAVProxy not installed (pip install --no-deps MAVProxy pyserial)")
 def test_unmodified_mavproxy_flies_the_sub(tmp_path):

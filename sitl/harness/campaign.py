@@ -105,7 +105,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None,
     if scheduler:
         client = Client(scheduler, timeout="20s")
         try:
-            say(f"campaign: on the cluster at {scheduler}, {len(client.scheduler_info()['workers'])} workers")
+            say(f"campaign: on the cluster at {scheduler}, {len(client.nthreads())} workers")
             yield client
         finally:
             client.close(timeout=5)
@@ -176,31 +176,35 @@ def _lost_row(task: CampaignTask, exc: BaseException) -> dict[str, Any]:
             "task_wall_s": None, "finished_at": time.time()}
 
 
+def _window(client: Any) -> int:
+    """Missions to keep queued: four per worker thread, at least eight (the cluster may grow or shrink)."""
+    return max(8, 4 * sum(client.nthreads().values()))
+
+
 def execute_tasks(client: Any, tasks: Sequence[CampaignTask],
                   on_outcome: Callable[[CampaignTask, TaskOutcome], None], window: int | None = None) -> None:
     """Run ``tasks`` on ``client``'s cluster, calling ``on_outcome`` (in this thread) as each finishes.
 
-    At most ``window`` missions are queued on the cluster at a time (default: four per worker, at least
-    eight), so an interrupt loses only those. On :class:`KeyboardInterrupt` the queued ones are cancelled.
+    At most ``window`` missions are queued on the cluster at a time (default: four per worker thread, at
+    least eight, re-read every few seconds as workers join or leave), so an interrupt loses only those.
+    On :class:`KeyboardInterrupt` the queued ones are cancelled.
     """
     from distributed import as_completed
 
-    if not tasks:
-        return
-    window = window or max(8, 4 * len(client.scheduler_info().get("workers", {})))
     token = uuid.uuid4().hex[:8]
     queue = list(reversed(tasks))
     by_key: dict[str, CampaignTask] = {}
-
-    def submit() -> Any:
-        t = queue.pop()
-        key = f"wavekeep-{token}-{t.mission_id}"
-        by_key[key] = t
-        return client.submit(run_task, t, key=key, pure=False, retries=0)
-
-    ac = as_completed([submit() for _ in range(min(window, len(queue)))])
+    ac = as_completed(loop=client.loop)
+    target, checked = window or _window(client), time.monotonic()
     try:
-        while not ac.is_empty():
+        while queue or not ac.is_empty():
+            if window is None and time.monotonic() - checked > 5.0:
+                target, checked = _window(client), time.monotonic()
+            while queue and ac.count() < target:
+                t = queue.pop()
+                key = f"wavekeep-{token}-{t.mission_id}"
+                by_key[key] = t
+                ac.add(client.submit(run_task, t, key=key, pure=False, retries=0))
             if not ac.has_ready():
                 time.sleep(0.05)      # poll: a blocking wait would hold off Ctrl-C until a mission ends
                 continue
@@ -212,8 +216,6 @@ def execute_tasks(client: Any, tasks: Sequence[CampaignTask],
                     outcome = TaskOutcome(_lost_row(task, exc))
                 fut.release()
                 on_outcome(task, outcome)
-                if queue:
-                    ac.add(submit())
     except KeyboardInterrupt:
         pending = list(ac.futures)
         ac.clear()

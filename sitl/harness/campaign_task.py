@@ -12,7 +12,6 @@ error, so the campaign goes on.
 from __future__ import annotations
 
 import json
-import math
 import socket
 import time
 import traceback
@@ -117,7 +116,3 @@ def run_task(task: CampaignTask) -> TaskOutcome:
     row.update(worker=_worker_name(), task_wall_s=time.perf_counter() - t0, finished_at=time.time())
     return TaskOutcome(row, results, series)
 
-
-def is_number(value: Any) -> bool:
-    """A finite int or float (not a bool)."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

@@ -273,10 +273,34 @@ def cmd_forecast(args) -> int:
     return 0
 
 
+def _add_campaign_parser(sub) -> None:
+    """``wavekeep campaign SPEC --out DIR [--scheduler tcp://HOST:PORT] [--workers N] ...``."""
+    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
+    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
+    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
+    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
+                   "default: a local cluster on 127.0.0.1")
+    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
+    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.add_argument("--log-interval", type=_positive, default=10.0,
+                   help="seconds between progress lines when stderr is not a terminal")
+    p.set_defaults(func=cmd_campaign)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="wavekeep", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_mission_parsers(sub)
+    _add_campaign_parser(sub)
+    _add_live_parsers(sub)
+    _add_process_parsers(sub)
+    _add_world_parsers(sub)
+    return parser
 
+
+def _add_mission_parsers(sub) -> None:
+    """``run`` and ``reproduce``: in-process missions."""
     p = sub.add_parser("run", help="fly one station-keeping mission in-process and report it")
     _add_common(p)
     p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
@@ -300,18 +324,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="folder for reproduce.json and the figures")
     p.set_defaults(func=cmd_reproduce)
 
-    p = sub.add_parser("campaign", help="run a grid of missions on Dask (resumable) and compare variants across seeds")
-    p.add_argument("spec", help="campaign YAML file (see configs/campaign/ and docs/campaigns.md)")
-    p.add_argument("--out", required=True, help="campaign folder; a rerun into it skips missions already done")
-    p.add_argument("--scheduler", default=None, help="tcp://HOST:8786 of an existing Dask cluster; "
-                   "default: a local cluster on 127.0.0.1")
-    p.add_argument("--workers", type=int, default=None, help="local cluster: worker processes (default one per core)")
-    p.add_argument("--retry-failed", action="store_true", help="rerun missions recorded as failed")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
-    p.add_argument("--log-interval", type=_positive, default=10.0,
-                   help="seconds between progress lines when stderr is not a terminal")
-    p.set_defaults(func=cmd_campaign)
 
+def _add_live_parsers(sub) -> None:
+    """``live`` and ``thrust``: a vehicle flying on the wall clock, and a client that drives it."""
     p = sub.add_parser("live", help="fly the vehicle live in one process with its MAVLink link (for a GCS)")
     _add_common(p)
     p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff")
@@ -336,6 +351,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--arm", action="store_true", help="switch the vehicle to MANUAL and arm it first")
     p.set_defaults(func=cmd_thrust)
 
+
+def _add_process_parsers(sub) -> None:
+    """``forecast``, ``sim``, ``plant``, ``firmware``: the SITL processes and their launcher."""
     p = sub.add_parser("forecast", help="the wave forecast service (shore side) on zenoh")
     _add_common(p)
     p.add_argument("--site", default=None, help="site name for the key expressions (default: configs/network.yaml)")
@@ -364,6 +382,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)")
     p = sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)")
 
+
+def _add_world_parsers(sub) -> None:
+    """``sea`` and ``openloop``: the world alone."""
     p = sub.add_parser("sea", help="write the realised sea (t, eta, u, w) at the vehicle to CSV")
     _add_common(p)
     p.add_argument("--duration", type=_positive, default=600.0, help="record length (s)")
@@ -378,7 +399,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=_positive, default=None, help="seconds; default the mission's")
     p.add_argument("--out", required=True, help="run folder for results.json and timeseries.csv")
     p.set_defaults(func=cmd_openloop)
-    return parser
 
 
 def cmd_sim(args) -> int:

@@ -73,6 +73,7 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
                                       np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True))},
         "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
         "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
+        "faults": control_stats.get("faults"),
     }
 
 

@@ -17,8 +17,6 @@ import numpy as np
 
 from bridge.dswp import predict_from_buoy
 from bridge.forecast import Forecast, derive_seeds, oracle_forecast
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.clocks import Clock
 from firmware_py.firmware import Firmware, tick_row
@@ -87,7 +85,9 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
     vcfg = load_vehicle_config(spec.vehicle)
     params = (params or load_params()).copy()
     for name, value in spec.overrides.items():
-        params.set(name, value)
+        why = params.set(name, value)
+        if why:
+            raise ValueError(f"parameter override {name}={value!r}: {why}")
     params.set("WK_FF_ENABLE", 1 if spec.ff else 0)
     rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]
@@ -97,8 +97,7 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
         plant.reset(eta=initial_eta)
     sensor_seed, forecast_seed = derive_seeds(sea.seed)
     hal = InProcessSITLHAL(plant, params, 1.0 / rate, sensor_seed, clock)
-    fw = Firmware(hal, params, VehicleParams.from_config(vcfg), ThrusterLayout.from_config(vcfg["thrusters"]),
-                  T200Curve.from_config(vcfg["thrusters"]), setpoint, rate, mcfg["plant"]["strips"])
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     forecast = None
     feeder = None
     if spec.forecast_source == "oracle":
@@ -155,7 +154,7 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     log[:, COLUMN["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
     if forecast is not None:
         log[:, COLUMN["forecast_eta"]] = elevation_along(forecast.components(), log[:, 1], log[:, 0])
-    stats = fw.scheduler.stats()
+    stats = {**fw.scheduler.stats(), "faults": fw.fault_counts()}
     errors = stats["tasks"]["control"].get("errors", 0)
     if errors:
         raise RuntimeError(f"control task raised {errors} time(s): {stats['tasks']['control'].get('last_error')}")
