@@ -27,7 +27,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "rk4_arr", "state_rates_arr"]
+__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "rk4_arr", "state_rates_arr", "warm_up"]
 
 
 def _wanted() -> bool:
@@ -206,3 +206,29 @@ def jacobian_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az):  # pragma: no c
         for i in range(6):
             A[i, j] = (fj[i] - f0[i]) / d
     return A
+
+
+_warm = False
+
+
+def warm_up() -> None:
+    """Load (or compile) every kernel now, once per process, with tiny inputs.
+
+    numba resolves and loads a kernel's cached machine code on its first call (≈ 0.1–0.3 s
+    in all); a real-time loop must not pay that on its first ticks, so the models call this
+    when they are built (:class:`~bridge.models.vehicle.VehicleParams`).
+    """
+    global _warm
+    if _warm or not ENABLED:
+        return
+    _warm = True
+    one, z1, z3 = np.ones(1), np.zeros(1), np.zeros((3, 1))
+    pv = np.ones(29)
+    body_flow_arrays(one, one, z1, np.ones((2, 1)), np.ones((2, 1)), z1, one, one, 10.0, 0.0, 1.0, 0.0, z1,
+                     np.zeros(3))
+    x, tau = np.zeros(6), np.zeros((3, 3))
+    for has in (True, False):
+        hydro_load(pv, 0.0, 0.0, 0.0, has, z1, one, z1, z1, z1, z1)
+        state_rates_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
+        rk4_arr(pv, x, 0.05, tau, has, z1, one, z3, z3, z3, z3)
+        jacobian_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)

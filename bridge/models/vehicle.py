@@ -97,6 +97,7 @@ class VehicleParams:
               self.X_u, self.Z_w, self.M_q, self.X_uu, self.Z_ww, self.M_qq, M_RB[0, 0], M_RB[0, 2], M_RB[1, 1],
               M_RB[1, 2], *np.linalg.inv(M).ravel()]
         object.__setattr__(self, "kernel_params", np.array(kp, dtype=float))
+        kernels.warm_up()   # load the compiled kernels now, not on a real-time loop's first ticks
 
     @property
     def mass(self) -> float:
