@@ -207,9 +207,14 @@ def _grouped_bars(ax: Axes, values: dict[str, list[float]], unit: str, fmt: str)
     ax.grid(axis="y", alpha=0.3)
 
 
+ANGLE_METRICS = ("rmse", "max_abs_error")
+"""results.json metrics whose pitch entry is an angle (rad, shown in deg); power is W for every DoF."""
+
+
 def _metric(runs: Sequence[RunResult], key: str, dof: str) -> dict[str, list[float]]:
-    """results[key][dof] per label and case, pitch converted from rad to deg."""
-    scale = float(np.degrees(1.0)) if dof == "pitch" else 1.0
+    """results[key][dof] per label and case; a pitch angle (RMSE, max error) converted from rad to deg,
+    any other metric (power, W) as it is."""
+    scale = float(np.degrees(1.0)) if dof == "pitch" and key in ANGLE_METRICS else 1.0
     return {label: [_select(runs, c, label).results[key][dof] * scale for c in CASES] for label in LABELS}
 
 
@@ -231,6 +236,12 @@ def plot_errors(runs: Sequence[RunResult], path: str | Path) -> Path:
 def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
     """Fig. 7: mean thruster power (W, the paper's T200 fit) per DoF and in total,
     grouped by case with one bar per controller."""
+    return _save(power_figure(runs), path)
+
+
+def power_figure(runs: Sequence[RunResult]) -> Figure:
+    """Fig. 7 as a figure: axes surge, heave, pitch, total; on each, the bars of LABELS[i] are
+    ``ax.containers[i]`` in CASES order, heights in W (the numbers of the reproduce table)."""
     fig, axes = _figure(1, 4, (14.0, 4.0))
     per = {dof: _metric(runs, "mean_power_w", dof) for dof in DOF}
     total = {label: list(np.sum([per[d][label] for d in DOF], axis=0)) for label in LABELS}
@@ -239,7 +250,7 @@ def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
         ax.set_title(f"{name}")
     axes[0, 0].legend(fontsize=8, loc="upper left")
     fig.suptitle("Mean power per DoF and in total")
-    return _save(fig, path)
+    return fig
 
 
 def plot_reproduce(runs: Sequence[RunResult], out_dir: str | Path, window: tuple[float, float] = (250.0, 400.0),
