@@ -17,14 +17,7 @@ from typing import Any
 
 import yaml
 
-__all__ = [
-    "ConfigError",
-    "Field",
-    "configs_dir",
-    "load_config",
-    "resolve_config",
-    "validate",
-]
+__all__ = ["ConfigError", "Field", "configs_dir", "load_config", "read_yaml", "resolve_config", "validate"]
 
 
 class ConfigError(ValueError):
@@ -163,22 +156,26 @@ def validate(data: Any, schema: Mapping[str, Any], file=None, prefix: str = "") 
     return out
 
 
-def load_config(path: str | os.PathLike, schema: Mapping[str, Any]) -> dict:
-    """Read a YAML file and validate it against ``schema``.
-
-    Raises :class:`ConfigError` (a ``ValueError``) for a missing file, bad YAML or
-    any bad value; the message names the file and the key.
-    """
+def read_yaml(path: str | os.PathLike) -> Any:
+    """The parsed YAML document in a file; :class:`ConfigError` for a file that is missing or not YAML."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(path, None, f"cannot read: {exc.strerror or exc}") from None
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(path, None, f"not valid YAML: {exc}") from None
-    return validate(data, schema, path)
+
+
+def load_config(path: str | os.PathLike, schema: Mapping[str, Any]) -> dict:
+    """Read a YAML file and validate it against ``schema``.
+
+    Raises :class:`ConfigError` (a ``ValueError``) for a missing file, bad YAML or
+    any bad value; the message names the file and the key.
+    """
+    return validate(read_yaml(path), schema, Path(path))
 
 
 def configs_dir() -> Path:

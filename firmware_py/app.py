@@ -16,8 +16,10 @@ the same at every speed-up: the mission's clock starts when the vehicle is
 armed, as in the in-process runner.
 
 Time: the loop runs in lockstep with the plant — each tick is one plant step —
-as fast as the plant answers, or, with ``--speedup X``, paced at X times real
-time on the wall clock (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
+as fast as the plant answers (``--speedup 0``), or, with ``--speedup X``, paced at X times real
+time on the wall clock. With no ``--speedup``, a run given ``--mavlink`` explicitly (a person's
+ground station on the other end) runs in real time (``--speedup 1``), and one without runs
+unpaced; the launcher always says which it wants (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
 slow tick makes the run fall behind, never skips a step).
 """
 from __future__ import annotations
@@ -53,7 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="wavekeep firmware", description=__doc__.split("\n")[0])
     p.add_argument("--hal", type=_parse_hal, default=("127.0.0.1", 9002), help="sitl:HOST:PORT of the physics server")
     p.add_argument("--mavlink", action="append", help="MAVLink endpoint (repeatable); default udpout:127.0.0.1:14550")
-    p.add_argument("--speedup", type=float, default=None, help="pace at X times real time; default: lockstep, unpaced")
+    p.add_argument("--speedup", type=float, default=None,
+                   help="pace at X times real time; 0: lockstep, unpaced. Default: 1 (real time) when --mavlink "
+                        "is given (a ground station is flying it), else 0")
     p.add_argument("--seed", type=int, default=0, help="run seed (sensor noise stream)")
     p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
     p.add_argument("--params", default="params", help="parameter defaults (configs/firmware/NAME.yaml or a path)")
@@ -96,6 +100,11 @@ def _write_log(path: str, rows: list[list[float]], stats: dict) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.speedup is None:
+        args.speedup = 1.0 if args.mavlink else 0.0
+    if args.speedup < 0:
+        print("wavekeep firmware: --speedup must be >= 0", file=sys.stderr)
+        return 2
     from bridge.configfile import ConfigError
     from bridge.forecast import derive_seeds
     from bridge.schemas import load_mission_config, load_vehicle_config

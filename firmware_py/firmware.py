@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -126,6 +126,7 @@ class Firmware:
         self.ekf_failsafe = EKFFailsafe(params, self.say)
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
+        self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
         self._motor_test: MotorTest | None = None
         self._pending: Prediction | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
@@ -210,10 +211,11 @@ class Firmware:
         self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
 
     def prearm_failure(self) -> str | None:
-        """Why the vehicle may not arm, or None."""
-        if not self.sensors_healthy:
+        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS)."""
+        checks = int(self.params.get("ARMING_CHECK", 1))
+        if checks & (1 | 2 | 16) and not self.sensors_healthy:
             return "sensors unhealthy"
-        if not self.ekf.converged():
+        if checks & (1 | 16) and not self.ekf.converged():
             return "EKF not converged"
         return None
 
@@ -332,6 +334,8 @@ class Firmware:
         t = slot_ns * 1e-9
         self._now = t
         frame = self.hal.read_sensors()
+        if self.depth_offset:
+            frame = replace(frame, depth=frame.depth - self.depth_offset)
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral

@@ -35,6 +35,8 @@ class ParamDef:
     ``ptype`` is the MAVLink parameter type (ArduPilot's AP_Float / AP_Int8 / AP_Int16 /
     AP_Int32): ``"REAL32"``, ``"INT8"``, ``"INT16"`` or ``"INT32"``. ``integer=True``
     without a ``ptype`` means INT32; an integer ``ptype`` makes the parameter integer.
+    ``readonly``: a ground station may read it but not set it (ArduPilot's read-only
+    parameters; the configuration file still sets it).
     """
 
     name: str
@@ -44,6 +46,7 @@ class ParamDef:
     doc: str
     integer: bool = False
     ptype: str = ""
+    readonly: bool = False
 
     def __post_init__(self) -> None:
         if not (1 <= len(self.name) <= 16) or self.name.upper() != self.name:
@@ -77,6 +80,53 @@ def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: s
     """One parameter per DoF: _X surge, _Z heave, _P pitch."""
     return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
             for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units, strict=False)]
+
+
+def _ardusub_defs() -> list[ParamDef]:
+    """The ArduSub parameters QGroundControl's Sub pages read (docs/mavlink.md says which ones act)."""
+    i8, i16, i32 = "INT8", "INT16", "INT32"
+    defs = [
+        ParamDef("FRAME_CONFIG", 0, 7, "", "frame: 2 = Vectored-6DOF (BlueROV2 Heavy)", ptype=i8, readonly=True),
+        ParamDef("ARMING_CHECK", 0, 2**20, "", "pre-arm checks: 0 none, bit 0 all, 2 baro, 16 INS/AHRS", ptype=i32),
+        ParamDef("FS_PILOT_INPUT", 0, 2, "", "pilot input failsafe: 0 off, 1 warn, 2 disarm", ptype=i8),
+        ParamDef("FS_PILOT_TIMEOUT", 0.1, 3.0, "s", "pilot input failsafe timeout"),
+        ParamDef("FS_LEAK_ENABLE", 0, 2, "", "leak failsafe: 0 off, 1 warn, 2 surface (no leak sensor here)",
+                 ptype=i8, readonly=True),
+        ParamDef("JS_GAIN_DEFAULT", 0.1, 1.0, "", "pilot gain at boot"),
+        ParamDef("JS_GAIN_MAX", 0.2, 1.0, "", "largest pilot gain"),
+        ParamDef("JS_GAIN_MIN", 0.1, 0.8, "", "smallest pilot gain"),
+        ParamDef("JS_GAIN_STEPS", 1, 10, "", "pilot gain steps from min to max", ptype=i8),
+        ParamDef("JS_THR_GAIN", 0.5, 4.0, "", "extra gain on the throttle stick"),
+        ParamDef("JS_LIGHTS_STEP", 0, 400, "us", "lights brighter/dimmer button step", ptype=i16),
+        ParamDef("JS_CAM_TILT_STEP", 0, 400, "us", "camera tilt button step", ptype=i16),
+        ParamDef("BATT_MONITOR", 0, 30, "", "battery monitor: 4 analog voltage and current (Power Sense Module)",
+                 ptype=i8, readonly=True),
+        ParamDef("BATT_CAPACITY", 0, 2**20, "mAh", "battery capacity: remaining % is counted against it", ptype=i32),
+        ParamDef("BATT_VOLT_MULT", 0.0, 100.0, "", "PSM voltage divider", readonly=True),
+        ParamDef("BATT_AMP_PERVLT", 0.0, 200.0, "A/V", "PSM current sense", readonly=True),
+        ParamDef("BATT_ARM_VOLT", 0.0, 100.0, "V", "minimum voltage to arm (0: no check)", readonly=True),
+        ParamDef("BATT_LOW_VOLT", 0.0, 100.0, "V", "low battery voltage (failsafe not simulated)", readonly=True),
+        ParamDef("BATT_CRT_VOLT", 0.0, 100.0, "V", "critical battery voltage", readonly=True),
+        ParamDef("BATT_FS_LOW_ACT", 0, 5, "", "low battery action", ptype=i8, readonly=True),
+        ParamDef("BATT_FS_CRT_ACT", 0, 5, "", "critical battery action", ptype=i8, readonly=True),
+        ParamDef("MOT_PWM_MIN", 0, 2000, "us", "thruster PWM at full reverse", ptype=i16, readonly=True),
+        ParamDef("MOT_PWM_MAX", 0, 2000, "us", "thruster PWM at full forward", ptype=i16, readonly=True),
+        ParamDef("MOT_PWM_TYPE", 0, 8, "", "output type: 0 normal PWM", ptype=i8, readonly=True),
+    ]
+    for name in ("PITCH", "ROLL", "THROTTLE", "YAW", "FORWARD", "LATERAL"):
+        defs.append(ParamDef(f"RCMAP_{name}", 1, 16, "", f"RC input channel of {name.lower()}", ptype=i8,
+                             readonly=True))
+    for b in range(16):
+        defs.append(ParamDef(f"BTN{b}_FUNCTION", 0, 127, "", f"joystick button {b} function", ptype=i8))
+        defs.append(ParamDef(f"BTN{b}_SFUNCTION", 0, 127, "", f"joystick button {b} function with shift", ptype=i8))
+    for ch in range(1, 17):
+        defs.append(ParamDef(f"SERVO{ch}_FUNCTION", -1, 200, "", f"output {ch} function (33-40 motors, "
+                             "51-66 RC input pass-through, 7 camera tilt)", ptype=i16, readonly=ch <= 8))
+    return defs
+
+
+ARDUSUB_DEFS: tuple[ParamDef, ...] = tuple(_ardusub_defs())
+"""ArduSub's names, types and meanings; the values (ArduSub's defaults) are in configs/firmware/params.yaml."""
 
 
 PARAM_DEFS: tuple[ParamDef, ...] = tuple([
@@ -136,6 +186,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("SR0_EXTRA1", 0, 50, "Hz", "ATTITUDE", ptype="INT16"),
     ParamDef("SR0_EXTRA2", 0, 50, "Hz", "VFR_HUD", ptype="INT16"),
     ParamDef("SR0_EXTRA3", 0, 50, "Hz", "SYSTEM_TIME", ptype="INT16"),
+    ParamDef("SR0_PARAMS", 0, 50, "Hz", "PARAM_VALUE stream (ArduPilot paces the list by bandwidth)", ptype="INT16",
+             readonly=True),
+    *ARDUSUB_DEFS,
     # Simulated sensors (SITL HAL)
     ParamDef("SIM_JSON_TMO", 0.05, 5.0, "s", "JSON SITL HAL: plant silent this long → sensors unhealthy"),
     ParamDef("SIM_POS_RND", 0.0, 10.0, "m", "position fix noise (1 sigma), e.g. an acoustic positioning system"),
@@ -143,6 +196,10 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("SIM_DEPTH_RND", 0.0, 1.0, "m", "pressure-depth noise (1 sigma), Bar30-like"),
     ParamDef("SIM_PITCH_RND", 0.0, 0.5, "rad", "AHRS pitch noise (1 sigma)"),
     ParamDef("SIM_GYRO_RND", 0.0, 0.5, "rad/s", "gyro pitch-rate noise (1 sigma)"),
+    ParamDef("SIM_BATT_CAP_AH", 0.1, 100.0, "Ah", "simulated battery: the 4S pack's real capacity"),
+    ParamDef("SIM_BATT_SOC", 0.0, 100.0, "%", "simulated battery: state of charge at boot"),
+    ParamDef("SIM_BATT_HOTEL", 0.0, 500.0, "W", "simulated battery: electronics, camera and lights load"),
+    ParamDef("SIM_BATT_RES", 0.0, 1.0, "Ohm", "simulated battery: the pack's internal resistance"),
 ])
 
 

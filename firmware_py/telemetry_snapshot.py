@@ -56,6 +56,14 @@ class TelemetrySnapshot:
         Latitude and longitude of the local NED origin (deg).
     tau_max_z : float
         Heave effort at full throttle (N).
+    prearm_ok : bool
+        The pre-arm checks ARMING_CHECK selects pass (:meth:`~firmware_py.firmware.Firmware.prearm_failure`).
+    thrust : tuple of float
+        Steady-state thrust of each thruster's PWM at the last tick (N), motor order; empty before it.
+    sigma : tuple of float
+        The estimate's 1-sigma of [x, z, θ] at the last tick; empty before it.
+    setpoint : tuple of float
+        The target [x (m), depth (m), θ (rad)] the controller held at the last tick; empty before it.
     """
 
     t: float | None
@@ -76,6 +84,10 @@ class TelemetrySnapshot:
     origin_lat: float
     origin_lon: float
     tau_max_z: float
+    prearm_ok: bool = False
+    thrust: tuple[float, ...] = ()
+    sigma: tuple[float, ...] = ()
+    setpoint: tuple[float, ...] = ()
 
     @property
     def has_tick(self) -> bool:
@@ -100,10 +112,14 @@ class TelemetrySnapshot:
                       sensors_healthy=bool(fw.sensors_healthy), ekf_converged=bool(fw.ekf.converged()),
                       failsafe=bool(fw.failsafe_gcs or fw.failsafe_ekf), forecast_age=age,
                       late_slots=int(late or 0), origin_lat=float(p["WK_ORIGIN_LAT"]),
-                      origin_lon=float(p["WK_ORIGIN_LON"]), tau_max_z=float(p["WK_TAU_MAX_Z"]))
+                      origin_lon=float(p["WK_ORIGIN_LON"]), tau_max_z=float(p["WK_TAU_MAX_Z"]),
+                      prearm_ok=fw.prearm_failure() is None)
         if r is None:
             return cls(t=None, x_hat=(), measured_depth=math.nan, pwm=(), heave_force=0.0, tau_e_hat=(0.0,) * 3,
                        ff_active=False, **common)
         return cls(t=float(r.t), x_hat=tuple(float(v) for v in r.x_hat[:6]), measured_depth=float(r.frame.depth),
                    pwm=tuple(float(v) for v in r.mix.pwm), heave_force=float(r.mix.tau_stages[-1][1]),
-                   tau_e_hat=tuple(float(v) for v in r.tau_e_hat[:3]), ff_active=bool(r.ff_active), **common)
+                   tau_e_hat=tuple(float(v) for v in r.tau_e_hat[:3]), ff_active=bool(r.ff_active),
+                   thrust=tuple(float(v) for v in r.mix.thrust_cmd), sigma=tuple(float(v) for v in r.sigma[:3]),
+                   setpoint=tuple(float(v) for v in r.setpoint[:3]),
+                   **common)

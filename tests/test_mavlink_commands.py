@@ -96,7 +96,7 @@ def test_disarmed_neutral_then_manual_control_and_rc_override_move_the_servos(v,
     s = [servos(m) for m in out if m.get_type() == "SERVO_OUTPUT_RAW"][-1]
     assert all(abs(p - 1500) > 50 for p in s[:4]) and all(abs(p - 1500) < 30 for p in s[4:])
     rc = [m for m in out if m.get_type() == "RC_CHANNELS"]
-    assert rc and rc[-1].chan5_raw == 1740 and rc[-1].chan3_raw == 1500
+    assert rc and rc[-1].chan5_raw == 1620 and rc[-1].chan3_raw == 1500     # 1500 + 400 × 0.6 × gain 0.5
     # RC override in ArduSub's channel order: 3 throttle up → the vertical thrusters (5-8)
     for _ in range(15):
         gs.send(mavlink.MAVLink_rc_channels_override_message(1, 1, 1500, 65535, 1800, 65535, 1500, 65535, 0, 0))

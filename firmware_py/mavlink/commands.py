@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
 from .param_protocol import BANNER
 from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED
-from .wire import ID, INT16_MAX, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
+from .wire import ID, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
 
 if TYPE_CHECKING:
     from .link import MavlinkLink
@@ -124,12 +124,7 @@ class Dispatcher:
         if not self._from_gcs(msg):        # ArduSub takes sticks from its own GCS only
             return self.link.ignored()
         rc = self.link.state.rc
-        x = 0.0 if msg.x == INT16_MAX else msg.x / 1000.0
-        up = 0.0 if msg.z == INT16_MAX else (msg.z - 500) / 500.0
-        pitch = (rc[0] - RC_NEUTRAL) / RC_RANGE
-        if getattr(msg, "enabled_extensions", 0) & 1 and msg.s != INT16_MAX:
-            pitch = msg.s / 1000.0
-        x, up, pitch = (min(1.0, max(-1.0, v)) for v in (x, up, pitch))
+        x, up, pitch = self.link.joystick.manual_control(msg)     # buttons, pilot gain (ArduSub's joystick)
         rc[0], rc[2], rc[4] = _stick(pitch), _stick(up), _stick(x)
         self.fw.pilot_input(x, up, pitch)
         self.fw.gcs_heartbeat()            # ArduSub: pilot input counts as the GCS being there
@@ -146,6 +141,7 @@ class Dispatcher:
                 continue
             rc[i] = RC_NEUTRAL if v == 0 else min(RC_NEUTRAL + RC_RANGE, max(RC_NEUTRAL - RC_RANGE, v))
         norm = lambda ch: (rc[ch] - RC_NEUTRAL) / RC_RANGE   # noqa: E731
+        self.link.joystick.touched()
         self.fw.pilot_input(norm(4), norm(2), norm(0))
         self.fw.gcs_heartbeat()
 

@@ -33,12 +33,16 @@ from collections.abc import Callable
 
 from ..modes import MAV_SEVERITY
 from ..telemetry_snapshot import TelemetrySnapshot
+from .battery import BatterySim
 from .commands import Dispatcher
 from .ftp import FtpResponder
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
+from .pilot import Joystick
 from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
+from .telemetry_extra import EXTRA_BUILDERS, VibrationMonitor
 from .transports import Transport, make_transport
+from .vehicle_commands import VehicleCommands
 from .wire import COMPONENT_ID, ID, SIGNING_EPOCH_S, UINT16_MAX, clip_int, mavlink
 
 __all__ = ["MavlinkLink"]
@@ -105,8 +109,13 @@ class MavlinkLink:
         self._next_due: dict[int, int] = {}
         self._interval: dict[int, int | None] = {}
         self.after: list = []                         # messages a command asked for, sent after its ACK
-        self.builders: dict[int, Builder] = dict(BUILDERS)
+        self.builders: dict[int, Builder] = {**BUILDERS, **EXTRA_BUILDERS}
+        self.battery = BatterySim(firmware.params)
+        self.state.vibration = VibrationMonitor()
+        self.joystick = Joystick(self)
+        self.vehicle_commands = VehicleCommands(self)
         self.dispatcher = Dispatcher(self)
+        self.dispatcher.commands.update(self.vehicle_commands.commands)
         self.param_protocol = ParamProtocol(self)
         self.missions = MissionProtocol(self)
         self.ftp = FtpResponder(self)
@@ -237,7 +246,8 @@ class MavlinkLink:
     def _update(self, slot_ns: int) -> None:
         self.state.now_ns = slot_ns
         self.state.sysid = self.sysid
-        self.snapshot = self.fw.telemetry_snapshot()
+        self.snapshot = snap = self.fw.telemetry_snapshot()
+        self._vehicle_state(snap)
         inbox, handlers = self._inbox, self._handlers
         deadline = time.perf_counter_ns() + self.budget_ns
         n = 0
@@ -260,6 +270,19 @@ class MavlinkLink:
         self._send_streams(slot_ns)
         if self._outbox:
             self._wake()
+
+    def _vehicle_state(self, snap: TelemetrySnapshot) -> None:
+        """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples."""
+        st = self.state
+        if snap.t is not None:
+            if st.epoch_us is None:
+                st.epoch_us = int(time.time() * 1e6 - snap.t * 1e6)
+            if st.vibration is not None:
+                st.vibration.update(snap)
+            self.vehicle_commands.sample(snap.measured_depth)
+        st.battery = self.battery.update(snap.t, snap.thrust if snap.armed else ())
+        st.ekf_thresh = float(self.fw.params["FS_EKF_THRESH"])
+        self.joystick.update(snap.t)
 
     def _wake(self) -> None:
         with contextlib.suppress(OSError):   # full (already awake) or closed

@@ -129,6 +129,10 @@ class ParamProtocol:
         name = msg.param_id
         if name not in params:
             return self.link.ignored()
+        if params.definition(name).readonly:          # ArduPilot: the text, then the value in force
+            self.link.statustext(MAV_SEVERITY.WARNING, f"Param write denied ({name})")
+            self.link.queue(self.value_message(params.index_of(name)))
+            return None
         why = params.set(name, wire_to_value(params.definition(name), msg.param_value))
         if why:
             self.link.fw.say(MAV_SEVERITY.WARNING, f"{name} not set: {why}")

@@ -15,12 +15,16 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 from ..modes import AUTO_AXES, GUIDED_GROUP
 from ..sensors import depth_to_pressure
 from ..telemetry_snapshot import TelemetrySnapshot
 from .wire import FLIGHT_SW_VERSION, ID, INT16_MAX, RC_NEUTRAL, UINT16_MAX, clip_int, mavlink
+
+if TYPE_CHECKING:
+    from .battery import BatteryState
+    from .telemetry_extra import VibrationMonitor
 
 __all__ = [
     "BUILDERS",
@@ -61,13 +65,14 @@ EARTH_RADIUS_M = 6378137.0
 HEARTBEAT_INTERVAL_NS = 1_000_000_000
 
 STREAM_GROUPS: dict[str, tuple[int, ...]] = {
-    "SR0_RAW_SENS": (ID["SCALED_PRESSURE2"],),
-    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["MISSION_CURRENT"], ID["GPS_RAW_INT"], ID["NAMED_VALUE_FLOAT"]),
+    "SR0_RAW_SENS": (ID["RAW_IMU"], ID["SCALED_PRESSURE"], ID["SCALED_PRESSURE2"]),
+    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["POWER_STATUS"], ID["MEMINFO"], ID["MISSION_CURRENT"], ID["GPS_RAW_INT"],
+                     ID["NAV_CONTROLLER_OUTPUT"], ID["NAMED_VALUE_FLOAT"]),
     "SR0_RC_CHAN": (ID["SERVO_OUTPUT_RAW"], ID["RC_CHANNELS"]),
     "SR0_POSITION": (ID["GLOBAL_POSITION_INT"], ID["LOCAL_POSITION_NED"]),
-    "SR0_EXTRA1": (ID["ATTITUDE"],),
+    "SR0_EXTRA1": (ID["ATTITUDE"], ID["AHRS2"]),
     "SR0_EXTRA2": (ID["VFR_HUD"],),
-    "SR0_EXTRA3": (ID["SYSTEM_TIME"],),
+    "SR0_EXTRA3": (ID["SYSTEM_TIME"], ID["BATTERY_STATUS"], ID["EKF_STATUS_REPORT"], ID["VIBRATION"]),
 }
 """Stream-rate parameter (Hz) → the messages it paces (ArduPilot's SR0_* groups)."""
 
@@ -102,7 +107,18 @@ class LinkState:
     sched_stats : dict or None
         The firmware scheduler's statistics (load, overruns, control-task timing).
     rc : list of int
-        RC channels 1–8 as the pilot last set them (µs), ArduSub's channel order.
+        RC channels 1–11 as the pilot last set them (µs), ArduSub's channel order: 1 pitch, 2 roll,
+        3 throttle, 4 yaw, 5 forward, 6 lateral, 7, 8 camera tilt, 9 lights 1, 10 lights 2, 11 video switch.
+    servo : list of int
+        Outputs 9–16 (µs; 0 never set): DO_SET_SERVO and the SERVOn_FUNCTION pass-throughs.
+    battery : BatteryState or None
+        The simulated battery's last reading.
+    vibration : VibrationMonitor or None
+        Body acceleration and vibration levels (RAW_IMU, VIBRATION).
+    ekf_thresh : float
+        FS_EKF_THRESH (m): EKF_STATUS_REPORT's test ratios are 1-sigma over it.
+    epoch_us : int or None
+        Unix time (µs) at vehicle time 0: SYSTEM_TIME's clock is this plus the vehicle time.
     mission_seq, mission_total : int
         The current mission item and the number of items (home included).
     home : tuple of float or None
@@ -114,7 +130,12 @@ class LinkState:
     sysid: int = 1
     counters: Mapping[str, int] = field(default_factory=dict)
     sched_stats: dict | None = None
-    rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8)
+    rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8 + [1100, 1100, 1100])
+    servo: list[int] = field(default_factory=lambda: [0] * 8)
+    battery: BatteryState | None = None
+    vibration: VibrationMonitor | None = None
+    ekf_thresh: float = 2.0
+    epoch_us: int | None = None
     mission_seq: int = 0
     mission_total: int = 1
     home: tuple[float, float, float] | None = None
@@ -188,8 +209,21 @@ def sys_status(snap: TelemetrySnapshot, link: LinkState) -> list:
     received = c["rx"] + c["rx_bad"]
     drop = clip_int(10000.0 * (c["rx_bad"] + c["inbox_dropped"]) / received, 0, 10000) if received else 0
     u16 = lambda v: clip_int(v, 0, UINT16_MAX)   # noqa: E731
+    present = SENSORS_PRESENT | _S.MAV_SYS_STATUS_PREARM_CHECK
+    enabled |= _S.MAV_SYS_STATUS_PREARM_CHECK
+    if snap.prearm_ok:
+        health |= _S.MAV_SYS_STATUS_PREARM_CHECK
+    b = link.battery
+    volt_mv, current_ca, remaining = UINT16_MAX, -1, -1
+    if b is not None:
+        present |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
+        enabled |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
+        health |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
+        volt_mv = clip_int(b.voltage * 1000.0, 0, UINT16_MAX - 1)
+        current_ca = clip_int(b.current * 100.0, -1, INT16_MAX)
+        remaining = clip_int(b.remaining_pct, -1, 100)
     return [mavlink.MAVLink_sys_status_message(
-        SENSORS_PRESENT, enabled, health, _load_permille(st), UINT16_MAX, -1, -1, drop, u16(c["rx_bad"]),
+        present, enabled, health, _load_permille(st), volt_mv, current_ca, remaining, drop, u16(c["rx_bad"]),
         u16(c["inbox_dropped"]), u16(c["rx_unsigned"]), u16(st.get("overruns", 0)),
         u16(st.get("skipped_slots", 0)))]
 
@@ -268,15 +302,19 @@ def servo_output_raw(snap: TelemetrySnapshot, link: LinkState) -> list:
         return []
     pwm = [clip_int(v, 0, UINT16_MAX) for v in snap.pwm[:8]]
     pwm += [0] * (8 - len(pwm))
+    aux = [clip_int(v, 0, UINT16_MAX) for v in link.servo[:8]]
+    aux += [0] * (8 - len(aux))
     t_us = clip_int((snap.t or 0.0) * 1e6, 0, 2**63)
-    return [mavlink.MAVLink_servo_output_raw_message(t_us & 0xFFFFFFFF, 0, *pwm)]
+    return [mavlink.MAVLink_servo_output_raw_message(t_us & 0xFFFFFFFF, 0, *pwm, *aux)]
 
 
 def rc_channels(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """RC_CHANNELS: the pilot's channels 1–8 (µs) as MANUAL_CONTROL / RC_CHANNELS_OVERRIDE set them."""
+    """RC_CHANNELS: the pilot's channels 1–11 (µs) as MANUAL_CONTROL / RC_CHANNELS_OVERRIDE set them."""
     if not snap.has_tick:
         return []
-    return [mavlink.MAVLink_rc_channels_message(time_boot_ms(snap, link), 8, *link.rc, *([UINT16_MAX] * 10), 255)]
+    rc = [clip_int(v, 0, UINT16_MAX) for v in link.rc[:18]]
+    return [mavlink.MAVLink_rc_channels_message(time_boot_ms(snap, link), len(rc), *rc,
+                                                *([UINT16_MAX] * (18 - len(rc))), 255)]
 
 
 def global_position_int(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -319,8 +357,14 @@ def vfr_hud(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def system_time(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """SYSTEM_TIME: the wall clock (µs since 1970) and the vehicle's time since boot (ms)."""
-    return [mavlink.MAVLink_system_time_message(int(time.time() * 1e6), time_boot_ms(snap, link))]
+    """SYSTEM_TIME: Unix time (µs) = a fixed epoch + the vehicle's time, and the time since boot (ms).
+
+    The epoch is the wall clock at vehicle time 0 (:attr:`LinkState.epoch_us`), so the two fields
+    agree in every run, paced or not; in a real-time run the Unix time is the wall clock.
+    """
+    t = snap.t if snap.t is not None else link.now_ns * 1e-9
+    epoch = link.epoch_us if link.epoch_us is not None else int(time.time() * 1e6 - t * 1e6)
+    return [mavlink.MAVLink_system_time_message(clip_int(epoch + t * 1e6, 0, 2**63), time_boot_ms(snap, link))]
 
 
 def autopilot_version(snap: TelemetrySnapshot, link: LinkState) -> list:

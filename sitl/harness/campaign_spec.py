@@ -36,9 +36,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from bridge.configfile import ConfigError, Field, resolve_config, validate
+from bridge.configfile import ConfigError, Field, read_yaml, resolve_config, validate
 
 from .spec import CONTROLLERS, FORECAST_SOURCES, MAX_SEED, RunSpec
 
@@ -251,12 +249,4 @@ def parse_campaign(data: Any, file: str, base: Path) -> CampaignSpec:
 def load_campaign_spec(path: str | os.PathLike) -> CampaignSpec:
     """Read and validate a campaign YAML file; :class:`ConfigError` names the file and the key."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(path, None, f"cannot read: {exc.strerror or exc}") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(path, None, f"not valid YAML: {exc}") from None
-    return parse_campaign(data, str(path), path.resolve().parent)
+    return parse_campaign(read_yaml(path), str(path), path.resolve().parent)

@@ -203,8 +203,7 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     firmware = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
                 "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
                 "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
-    if opt.speedup:
-        firmware += ["--speedup", str(opt.speedup)]
+    firmware += ["--speedup", str(opt.speedup or 0)]      # explicit: 0 is unpaced (the default with --mavlink is 1)
     firmware += ["--set", f"WK_FF_ENABLE={1 if spec.ff else 0}"]
     # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
     # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
@@ -230,10 +229,26 @@ class _GroundStation:
         self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255,
                                                source_component=190, dialect="ardupilotmega")
         # .tlog: what MAVProxy and QGroundControl write — a big-endian µs timestamp before each frame.
-        # (pymavlink's setup_logfile does not log on UDP links, so the launcher writes it.)
+        # (pymavlink's setup_logfile does not log on UDP links, so the launcher writes it.) Both
+        # directions, stamped in vehicle time: the epoch SYSTEM_TIME gives (Unix µs at vehicle time 0)
+        # plus the latest time_boot_ms heard, so an unpaced run's log replays on its own clock.
         self.tlog = open(tlog, "wb")  # noqa: SIM115 — closed in close()
         self.children = children
         self._last_hb = 0.0
+        self._epoch_us = int(time.time() * 1e6)     # until the vehicle's SYSTEM_TIME says
+        self._vehicle_us = 0
+        self._stamp = 0
+        self.conn.mav.set_send_callback(lambda msg: self._log(msg))
+
+    def _log(self, m) -> None:
+        """Append one frame to the .tlog, stamped in vehicle time (never going backwards)."""
+        if m.get_type() == "SYSTEM_TIME" and m.time_unix_usec:
+            self._epoch_us = int(m.time_unix_usec) - int(m.time_boot_ms) * 1000
+        t_ms = getattr(m, "time_boot_ms", None)
+        if isinstance(t_ms, int) and m.get_srcSystem() != 255:
+            self._vehicle_us = t_ms * 1000
+        self._stamp = max(self._stamp, self._epoch_us + self._vehicle_us)
+        self.tlog.write(struct.pack(">Q", self._stamp & ~3) + m.get_msgbuf())
 
     def pump(self, until, what: str, timeout: float = 30.0):
         """Read messages until ``until(msg)`` is true; heartbeat and watch the children meanwhile."""
@@ -248,7 +263,7 @@ class _GroundStation:
             m = self.conn.recv_match(blocking=True, timeout=0.05)
             if m is None or m.get_type() == "BAD_DATA":
                 continue
-            self.tlog.write(struct.pack(">Q", int(time.time() * 1e6) & ~3) + m.get_msgbuf())
+            self._log(m)
             if until(m):
                 return m
         raise LaunchError(f"timed out waiting for {what}")

@@ -1,0 +1,188 @@
+"""Telemetry, continued: the other messages ArduSub streams or sends on request (docs/mavlink.md).
+
+Same contract as :mod:`.telemetry`: ``build(snap, link) -> list[message]``, empty
+while there is nothing to report, never raising on odd values. Their stream
+groups are in :data:`.telemetry.STREAM_GROUPS` (ArduSub's); ATTITUDE_QUATERNION
+and EXTENDED_SYS_STATE are in none of ArduSub's groups and go out on request or
+at a SET_MESSAGE_INTERVAL rate.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+from ..telemetry_snapshot import TelemetrySnapshot
+from .telemetry import EARTH_RADIUS_M, Builder, LinkState, ned_state, time_boot_ms
+from .wire import ID, INT16_MAX, UINT16_MAX, clip_int, mavlink
+
+__all__ = ["ENCLOSURE_PRESSURE_HPA", "EXTRA_BUILDERS", "VibrationMonitor"]
+
+ENCLOSURE_PRESSURE_HPA = 1013.25     # SCALED_PRESSURE: the autopilot's own barometer, in the sealed tube
+ENCLOSURE_TEMPERATURE_CDEG = 2500    # nominal 25 °C in the electronics tube
+G_MSS = 9.80665
+_EKF_GOOD = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT
+             | mavlink.EKF_POS_HORIZ_REL | mavlink.EKF_POS_HORIZ_ABS | mavlink.EKF_POS_VERT_ABS
+             | mavlink.EKF_PRED_POS_HORIZ_REL | mavlink.EKF_PRED_POS_HORIZ_ABS)
+
+
+def _usec(snap: TelemetrySnapshot) -> int:
+    return clip_int((snap.t or 0.0) * 1e6, 0, 2**63)
+
+
+class VibrationMonitor:
+    """ArduPilot's vibration levels: √(low-pass of (a − low-pass(a))²) of the body acceleration (m/s²).
+
+    The acceleration is the estimate's body-velocity change between ticks, plus gravity
+    resolved in the body frame (what an accelerometer measures).
+    """
+
+    def __init__(self, floor_hz: float = 5.0, level_hz: float = 2.0):
+        self._floor_hz, self._level_hz = floor_hz, level_hz
+        self._last: tuple[float, float, float] | None = None
+        self._floor = [0.0, 0.0]
+        self._sq = [0.0, 0.0]
+        self.accel = (0.0, 0.0, -G_MSS)
+
+    def update(self, snap: TelemetrySnapshot) -> tuple[float, float, float]:
+        """Feed one tick's estimate; returns the vibration levels (x, y, z), m/s²."""
+        if not snap.has_tick or len(snap.x_hat) < 6 or not all(map(math.isfinite, snap.x_hat[2:5])):
+            return self.levels()
+        t, th, u, w = float(snap.t or 0.0), snap.x_hat[2], snap.x_hat[3], snap.x_hat[4]
+        last, self._last = self._last, (t, u, w)
+        if last is None or not t > last[0]:
+            return self.levels()
+        dt = t - last[0]
+        ax = (u - last[1]) / dt + G_MSS * math.sin(th)
+        az = (w - last[2]) / dt - G_MSS * math.cos(th)
+        self.accel = (ax, 0.0, az)
+        a_floor = 1.0 - math.exp(-2 * math.pi * self._floor_hz * dt)
+        a_level = 1.0 - math.exp(-2 * math.pi * self._level_hz * dt)
+        for i, a in enumerate((ax, az)):
+            self._floor[i] += a_floor * (a - self._floor[i])
+            self._sq[i] += a_level * ((a - self._floor[i]) ** 2 - self._sq[i])
+        return self.levels()
+
+    def levels(self) -> tuple[float, float, float]:
+        return math.sqrt(max(self._sq[0], 0.0)), 0.0, math.sqrt(max(self._sq[1], 0.0))
+
+
+def raw_imu(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """RAW_IMU: the accelerometer (mG, body FRD, gravity included) and the gyro (mrad/s); no magnetometer."""
+    if not snap.has_tick:
+        return []
+    ax, _ay, az = link.vibration.accel if link.vibration is not None else (0.0, 0.0, -G_MSS)
+    q = snap.x_hat[5] if len(snap.x_hat) > 5 else 0.0
+    mg = lambda a: clip_int(1000.0 * a / G_MSS, -32768, INT16_MAX)   # noqa: E731
+    return [mavlink.MAVLink_raw_imu_message(_usec(snap), mg(ax), 0, mg(az), 0, clip_int(q * 1000.0, -32768, INT16_MAX),
+                                            0, 0, 0, 0, 0, ENCLOSURE_TEMPERATURE_CDEG)]
+
+
+def scaled_pressure(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """SCALED_PRESSURE: the autopilot board's barometer inside the sealed tube (nominal 1013.25 hPa, 25 °C)."""
+    if not snap.has_tick:
+        return []
+    return [mavlink.MAVLink_scaled_pressure_message(time_boot_ms(snap, link), ENCLOSURE_PRESSURE_HPA, 0.0,
+                                                    ENCLOSURE_TEMPERATURE_CDEG)]
+
+
+def power_status(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """POWER_STATUS: the board's 5 V rail from the Power Sense Module's regulator (brick valid)."""
+    return [mavlink.MAVLink_power_status_message(5000, 0, mavlink.MAV_POWER_STATUS_BRICK_VALID)]
+
+
+def meminfo(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """MEMINFO: the companion computer's available memory (bytes; freemem saturates at 65535)."""
+    try:
+        free = int(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):
+        free = 0
+    return [mavlink.MAVLink_meminfo_message(0, min(free, UINT16_MAX), min(free, 2**32 - 1))]
+
+
+def nav_controller_output(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """NAV_CONTROLLER_OUTPUT: target pitch (deg), bearing and distance to the x target, depth error (m)."""
+    if not snap.has_tick or len(snap.setpoint) < 3:
+        return []
+    x, z, _th, _vx, _vz, _q = ned_state(snap)
+    sx, sz, sth = snap.setpoint[:3]
+    dx = sx - x if math.isfinite(sx - x) else 0.0
+    bearing = 0 if dx >= 0 else 180
+    alt_error = z - sz if math.isfinite(z - sz) else 0.0     # target altitude − altitude (altitude = −depth)
+    return [mavlink.MAVLink_nav_controller_output_message(
+        0.0, math.degrees(sth) if math.isfinite(sth) else 0.0, bearing, bearing, clip_int(abs(dx), 0, UINT16_MAX),
+        alt_error, 0.0, 0.0)]
+
+
+def ahrs2(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """AHRS2: the secondary attitude/position solution; here the same estimate (roll and yaw 0)."""
+    if not snap.has_tick:
+        return []
+    x, z, th, _vx, _vz, _q = ned_state(snap)
+    lat = snap.origin_lat + math.degrees(x / EARTH_RADIUS_M) if math.isfinite(x) else snap.origin_lat
+    return [mavlink.MAVLink_ahrs2_message(0.0, th, 0.0, -z, clip_int(lat * 1e7, -900000000, 900000000),
+                                          clip_int(snap.origin_lon * 1e7, -1800000000, 1800000000))]
+
+
+def attitude_quaternion(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """ATTITUDE_QUATERNION: the pitch-only attitude as a quaternion (w, x, y, z), pitch rate."""
+    if not snap.has_tick:
+        return []
+    _x, _z, th, _vx, _vz, q = ned_state(snap)
+    half = th / 2.0 if math.isfinite(th) else 0.0
+    return [mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(snap, link), math.cos(half), 0.0,
+                                                        math.sin(half), 0.0, 0.0, q, 0.0)]
+
+
+def extended_sys_state(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """EXTENDED_SYS_STATE: as ArduSub, which reports no landed state: UNDEFINED, and no VTOL state."""
+    return [mavlink.MAVLink_extended_sys_state_message(mavlink.MAV_VTOL_STATE_UNDEFINED,
+                                                       mavlink.MAV_LANDED_STATE_UNDEFINED)]
+
+
+def ekf_status_report(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """EKF_STATUS_REPORT: solution flags, and each 1-sigma over FS_EKF_THRESH as the test ratio (< 1 healthy)."""
+    if not snap.has_tick or len(snap.sigma) < 2:
+        return [mavlink.MAVLink_ekf_status_report_message(mavlink.EKF_UNINITIALIZED, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
+    flags = _EKF_GOOD if snap.ekf_converged else (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_VERT
+                                                  | mavlink.EKF_POS_VERT_ABS)
+    thresh = max(float(link.ekf_thresh), 1e-6)
+    ratio = lambda s: min(max(s / thresh, 0.0), 100.0) if math.isfinite(s) else 100.0   # noqa: E731
+    horiz, vert = ratio(snap.sigma[0]), ratio(snap.sigma[1])
+    return [mavlink.MAVLink_ekf_status_report_message(flags, horiz, horiz, vert, 0.0, 0.0, 0.0)]
+
+
+def vibration(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """VIBRATION: the accelerometer's vibration levels (m/s²); no clipping."""
+    if not snap.has_tick or link.vibration is None:
+        return []
+    vx, vy, vz = link.vibration.levels()
+    return [mavlink.MAVLink_vibration_message(_usec(snap), vx, vy, vz, 0, 0, 0)]
+
+
+def battery_status(snap: TelemetrySnapshot, link: LinkState) -> list:
+    """BATTERY_STATUS of the simulated 4S pack, as ArduPilot sends it without cell monitoring."""
+    b = link.battery
+    if b is None:
+        return []
+    cells = [clip_int(b.voltage * 1000.0, 0, UINT16_MAX - 1)] + [UINT16_MAX] * 9
+    return [mavlink.MAVLink_battery_status_message(
+        0, mavlink.MAV_BATTERY_FUNCTION_UNKNOWN, mavlink.MAV_BATTERY_TYPE_UNKNOWN, INT16_MAX, cells,
+        clip_int(b.current * 100.0, -1, INT16_MAX), clip_int(b.consumed_mah, -1, 2**31 - 1),
+        clip_int(b.consumed_wh * 36.0, -1, 2**31 - 1), clip_int(b.remaining_pct, -1, 100), 0,
+        mavlink.MAV_BATTERY_CHARGE_STATE_OK)]
+
+
+EXTRA_BUILDERS: dict[int, Builder] = {
+    ID["RAW_IMU"]: raw_imu,
+    ID["SCALED_PRESSURE"]: scaled_pressure,
+    ID["POWER_STATUS"]: power_status,
+    ID["MEMINFO"]: meminfo,
+    ID["NAV_CONTROLLER_OUTPUT"]: nav_controller_output,
+    ID["AHRS2"]: ahrs2,
+    ID["ATTITUDE_QUATERNION"]: attitude_quaternion,
+    ID["EXTENDED_SYS_STATE"]: extended_sys_state,
+    ID["EKF_STATUS_REPORT"]: ekf_status_report,
+    ID["VIBRATION"]: vibration,
+    ID["BATTERY_STATUS"]: battery_status,
+}
+"""Message id → builder of the messages this module adds."""
