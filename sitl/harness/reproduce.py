@@ -29,7 +29,8 @@ from .results import TIMESERIES_COLUMNS, RunResult
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "reproduce_seeds", "summarise", "summary_statements"]
+__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "reproduce_seeds", "summarise",
+           "summary_statements"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
@@ -130,19 +131,23 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _tasks(seed: int | None, duration: float | None, plots: bool) -> list[CampaignTask]:
+def _tasks(seed: int | None, duration: float | None, plots: bool,
+           overrides: dict[str, float] | None = None) -> list[CampaignTask]:
     """The nine missions; the W3 ones bring their time series back for Figs. 4 and 5."""
     return [CampaignTask(f"{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}", VARIANT_KEYS[(v.controller, v.snr_db)],
-                         replace(v, case=c, seed=seed, duration=duration), keep_timeseries=plots and c == "W3")
+                         replace(v, case=c, seed=seed, duration=duration, overrides=dict(overrides or {})),
+                         keep_timeseries=plots and c == "W3")
             for c in CASES for v in PAPER_VARIANTS]
 
 
 def reproduce(out: str | Path, seed: int | None = None, duration: float | None = None, workers: int | None = None,
-              plots: bool = True, progress=print, scheduler: str | None = None) -> dict:
-    """Run the nine missions on the campaign engine, write DIR/reproduce.json (+ figures), return the document."""
+              plots: bool = True, progress=print, scheduler: str | None = None,
+              overrides: dict[str, float] | None = None) -> dict:
+    """Run the nine missions on the campaign engine, write DIR/reproduce.json (+ figures), return the document.
+
+    ``out`` is created only when the runs are done: a failed or interrupted reproduction leaves nothing."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    jobs = _tasks(seed, duration, plots)
+    jobs = _tasks(seed, duration, plots, overrides)
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()
     got: dict[str, TaskOutcome] = {}
@@ -166,6 +171,7 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     results = [r.results for r in runs]
     summary = summarise(results)
     doc = {"runs": results, "summary": summary, "paper": PAPER, "wall_time_s": wall}
+    out.mkdir(parents=True, exist_ok=True)
     (out / "reproduce.json").write_text(json.dumps(doc, indent=2))
     if plots:
         plot_reproduce(runs, out)
