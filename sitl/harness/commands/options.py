@@ -161,8 +161,8 @@ def endpoint(url: str, option: str = "--mavlink", bind: bool = False) -> str:
         raise UsageError(f"{option} {url}: expected udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT "
                          "or tcpin:HOST:PORT")
     try:
-        n = port(port_text)
-    except argparse.ArgumentTypeError as exc:
+        n = port("1" if port_text == "0" and kind in ("udpin", "tcpin") else port_text) and int(port_text)
+    except (argparse.ArgumentTypeError, ValueError) as exc:
         raise UsageError(f"{option} {url}: {exc}") from None
     if bind and kind in ("udpin", "tcpin"):
         kind_sock = socket.SOCK_DGRAM if kind == "udpin" else socket.SOCK_STREAM

@@ -21,7 +21,7 @@ def add_parsers(sub) -> None:
                        "target spectrum.")
     o.add_common(p)
     p.add_argument("--duration", type=o.duration, default=600.0, help="record length (s)")
-    p.add_argument("--rate", type=o.positive, default=None, help="sample rate (Hz); default: the mission's control rate")
+    p.add_argument("--rate", type=o.positive, default=None, help="sample rate (Hz); default: the control rate")
     p.add_argument("--x", type=float, default=None, help="north position (m); default: the mission setpoint's")
     p.add_argument("--depth", type=float, default=None, help="depth (m, positive down); default: the mission's")
     p.add_argument("--out", default="runs/sea.csv", help="CSV file to write (and its .png beside it)")
