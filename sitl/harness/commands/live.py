@@ -106,5 +106,5 @@ def cmd_live_thrust(args: argparse.Namespace) -> int:
         profile = pattern_profile(args.pattern, args.axis, args.amplitude, args.duration, args.period)
     out = stream_thrust(args.mavlink, profile, units=args.units, arm=args.arm)
     print(f"sent {out['messages']} messages in {out['ticks']} ticks over {out['duration_s']:.1f} s"
-          + ("; disarmed the vehicle" if args.arm else ""))
+)
     return 0
