@@ -1,4 +1,4 @@
-"""Issue #17: bad input is one line ``wavekeep CMD: …`` on stderr and exit 2 — never a traceback, nothing left behind."""
+"""Issue #17: bad input is one line ``wavekeep CMD: …`` on stderr, exit 2 — never a traceback, nothing left behind."""
 from __future__ import annotations
 
 import socket
@@ -118,7 +118,8 @@ def test_minimal_measured_sea_yaml(tmp_path, capsys):
     """README: a sea YAML needs only what differs from the defaults."""
     (tmp_path / "buoy.csv").write_text("0.05,0.1\n0.1,2.0\n0.15,1.0\n0.2,0.3\n0.3,0.05\n")
     (tmp_path / "sea.yaml").write_text("spectrum: {type: measured, csv: buoy.csv}\n")
-    assert main(["sea", "--case", str(tmp_path / "sea.yaml"), "--duration", "60", "--out", str(tmp_path / "o.csv")]) == 0
+    argv = ["sea", "--case", str(tmp_path / "sea.yaml"), "--duration", "60", "--out", str(tmp_path / "o.csv")]
+    assert main(argv) == 0
     assert (tmp_path / "o.png").is_file()
     assert (tmp_path / "o.csv").read_text().splitlines()[1] == "t_s,eta_m,u_m_per_s,w_m_per_s_down"
 
@@ -147,5 +148,5 @@ def test_version(capsys):
 def test_a_subprocess_error_is_one_line(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "sitl.harness.cli", "run", "--seed", "-1", "--out",
                            str(tmp_path / "r")], capture_output=True, text=True, timeout=120)
-    assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and proc.stderr.startswith("wavekeep run: --seed") \
+    assert (proc.returncode == 2 and proc.stderr.count("\n") == 1 and proc.stderr.startswith("wavekeep run: --seed")) \
         or proc.stderr.startswith("wavekeep run: argument --seed"), proc.stderr

@@ -13,7 +13,7 @@ WAVEKEEP = [sys.executable, "-m", "sitl.harness.cli"]
 
 
 def interrupt(argv: list[str], ready: str, cwd: Path, timeout: float = 120.0) -> tuple[int, str, float]:
-    """Start ``wavekeep argv``, wait until stderr shows ``ready``, send SIGINT; (exit status, stderr, seconds to stop)."""
+    """Start ``wavekeep argv``, wait for ``ready`` on stderr, send SIGINT; (exit status, stderr, seconds to stop)."""
     proc = subprocess.Popen([*WAVEKEEP, *argv], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True,
                             cwd=cwd, start_new_session=True)
     seen = []
