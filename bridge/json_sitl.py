@@ -78,6 +78,7 @@ class StateReply:
     nu: np.ndarray               # [u, w, q] (m/s, m/s, rad/s)
     thrust: np.ndarray | None    # per-thruster thrust (N), when the server sends it
     frame_count: int | None      # the servo frame it answers, when the server says
+    accel: np.ndarray | None = None   # specific force [f_x, f_z] (m/s², body FRD) from imu.accel_body, if sent
 
 
 def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
@@ -200,4 +201,9 @@ def decode_state(line: bytes | str) -> StateReply:
         u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
         eta = np.array([pos[0], pos[2], theta])
         nu = np.array([u, w, gyro[1]])
-    return StateReply(ts, eta, nu, thrust, count)
+    accel = None
+    imu = msg.get("imu")
+    if isinstance(imu, dict) and "accel_body" in imu:
+        a = _vec(imu, "accel_body", 3)
+        accel = np.array([a[0], a[2]])
+    return StateReply(ts, eta, nu, thrust, count, accel)

@@ -16,11 +16,15 @@ Structure, after the authors' implementation (docs/reference.md §7):
 * feed-forward (C-PD+FF): u += g_ff · τ_FF / τ_max with τ_FF = −τ̂_E, the
   predicted wave load negated (the paper prints the inertia term with the
   wrong sign; docs/architecture.md);
+* disturbance observer (``WK_DOB_ENABLE``, the ``cpd_dob`` and ``cpd_ff_dob``
+  controllers): u += τ_DOB / τ_max with τ_DOB = −g_dob · d̂, the aided EKF's
+  estimate of the disturbance wrench the model does not predict, limited to
+  ``WK_DOB_LIM_*`` · τ_max (docs/estimator.md);
 * τ = τ_max · sat(u, 1).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,6 +42,7 @@ class ControlOutput:
     tau: np.ndarray        # the saturated total command
     tau_ff: np.ndarray     # the feed-forward part as applied (g_ff · τ_FF)
     saturated: bool        # some axis hit ±τ_max (logged per tick)
+    tau_dob: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the DOB part as applied
 
 
 class StationKeepingController:
@@ -49,8 +54,18 @@ class StationKeepingController:
     def reset(self) -> None:
         self._prev_error = None
 
-    def update(self, x_hat: np.ndarray, setpoint: np.ndarray, tau_ff: np.ndarray | None, dt: float) -> ControlOutput:
-        """One control step from the estimate x̂ = [x, z, θ, u, w, q] to the setpoint [x, z, θ]."""
+    def disturbance_feedback(self, d_hat: np.ndarray | None) -> np.ndarray:
+        """τ_DOB = −g_dob · d̂, limited to WK_DOB_LIM_* · τ_max; zeros when the DOB is off or d̂ is None."""
+        p = self.params
+        if d_hat is None or not p["WK_DOB_ENABLE"]:
+            return np.zeros(3)
+        lim = np.array(p.axes("WK_DOB_LIM")) * np.array(p.axes("WK_TAU_MAX"))
+        return np.clip(-p["WK_DOB_GAIN"] * np.asarray(d_hat, dtype=float), -lim, lim)
+
+    def update(self, x_hat: np.ndarray, setpoint: np.ndarray, tau_ff: np.ndarray | None, dt: float,
+               d_hat: np.ndarray | None = None) -> ControlOutput:
+        """One control step from the estimate x̂ = [x, z, θ, u, w, q] to the setpoint [x, z, θ]
+        (``d_hat``: the estimated disturbance wrench, fed back when the DOB is on)."""
         p = self.params
         eta, nu = x_hat[:3], x_hat[3:]
         e_n = np.asarray(setpoint, dtype=float) - eta
@@ -63,10 +78,11 @@ class StationKeepingController:
         u_pd = np.array(p.axes("WK_VEL_KP")) * (v_d - nu)
         tau_max = np.array(p.axes("WK_TAU_MAX"))
         ff = np.zeros(3) if tau_ff is None else p["WK_FF_GAIN"] * np.asarray(tau_ff, dtype=float)
-        u = u_pd + ff / tau_max
+        dob = self.disturbance_feedback(d_hat)
+        u = u_pd + (ff + dob) / tau_max
         if p["WK_G_COMP"]:
             g_est = restoring_forces(self.vehicle, eta)
             g_ref = restoring_forces(self.vehicle, np.asarray(setpoint, dtype=float))
             u = u + np.array([g_est[0], g_est[1], g_ref[2]]) / tau_max
         u_sat = np.clip(u, -1.0, 1.0)
-        return ControlOutput(tau=tau_max * u_sat, tau_ff=ff, saturated=bool(np.any(u_sat != u)))
+        return ControlOutput(tau=tau_max * u_sat, tau_ff=ff, saturated=bool(np.any(u_sat != u)), tau_dob=dob)

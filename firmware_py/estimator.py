@@ -1,27 +1,36 @@
 """Planar extended Kalman filter (paper §III-A), built on filterpy's ExtendedKalmanFilter.
 
 State x = [x, z, θ, u, w, q] (NED position m, depth m, pitch rad; body velocities
-m/s and pitch rate rad/s). Prediction runs the shared vehicle model
-(:func:`~bridge.models.vehicle.rk4_step`, nominal parameters) driven by
-the thrust the firmware commanded (through its motor-lag model) plus, when a
-forecast is in use, the predicted wave load. Its Jacobian F is taken from the
-continuous model by finite differences, F ≈ I + A h + (A h)²/2.
+m/s and pitch rate rad/s) and, in the aided mode (``WK_EKF_MODE`` 1, read at boot),
+a disturbance wrench d = [d_X, d_Z, d_M] (N, N, N m, body frame): everything the
+model does not predict — the wave load when there is no forecast, the forecast's
+error when there is one — as a random walk (or a first-order Gauss–Markov process,
+``WK_EKF_D_TC``) driven by ``WK_EKF_QD_*``. Prediction runs the shared vehicle model
+(:func:`~bridge.models.vehicle.rk4_step`, nominal parameters) driven by the thrust the
+firmware commanded (through its motor-lag model) plus d, plus, when a forecast is in
+use, the predicted wave load. Its Jacobian F is taken from the continuous model by
+finite differences, F ≈ I + A h + (A h)²/2 (with d: the block B h + A B h²/2, B = [0; M⁻¹]).
 
-Measurements z = [x, depth, θ, q]; any may be missing on a tick (the position
-fix runs slower than the loop). Each available channel is gated on its
-normalised innovation |y_i| / √S_ii against ``WK_EKF_GATE``; rejected
-readings are counted per channel and never reach the state. A channel whose
-readings have all been rejected for ``WK_EKF_RST_T`` seconds is reset to its
-measurement (state set, its covariance row cleared to the measurement noise),
-as ArduPilot's EKF resets to GPS after a timeout: a gate must not lock a good
-sensor out for ever once the model has been wrong for a while.
+Measurements z = [x, depth, θ, q] and, aided, [u, w] from the DVL and the
+accelerometer's specific force [f_x, f_z] = ν̇(x, τ + d) + ω × v − g_body, whose
+model is the vehicle's own acceleration: the accelerometer sees the disturbance
+through M⁻¹ d at every tick. Any reading may be missing on a tick. Each
+available channel is gated on its normalised innovation |y_i| / √S_ii against
+``WK_EKF_GATE``; rejected readings are counted per channel and never reach the
+state. A directly measured channel whose readings have all been rejected for
+``WK_EKF_RST_T`` seconds is reset to its measurement (state set, its covariance
+row cleared to the measurement noise), as ArduPilot's EKF resets to GPS after a
+timeout: a gate must not lock a good sensor out for ever once the model has been
+wrong for a while. docs/estimator.md has the design and its consistency checks.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse (same bits)
 
-from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step
+from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step, state_rates_at
 
 from .filterpy_ekf import ExtendedKalmanFilter
 from .params import ParameterTable
@@ -29,27 +38,36 @@ from .sensors import SensorFrame
 
 __all__ = ["CHANNELS", "MEASURED_STATES", "PlanarEKF"]
 
-MEASURED_STATES = (0, 1, 2, 5)
-"""State index of each measurement channel: x, depth, pitch, pitch rate."""
+MEASURED_STATES = (0, 1, 2, 5, 3, 4)
+"""State index of each directly measured channel: x, depth, pitch, pitch rate, DVL u, DVL w."""
 
-CHANNELS = ("position", "depth", "pitch", "pitch_rate")
+CHANNELS = ("position", "depth", "pitch", "pitch_rate", "dvl_u", "dvl_w", "accel_x", "accel_z")
+"""Measurement channels; the paper's mode uses the first four."""
+
+_ACCEL = slice(6, 8)
 
 
 class _ModelEKF(ExtendedKalmanFilter):
-    """filterpy EKF whose prediction integrates the nonlinear vehicle model.
+    """filterpy EKF whose prediction integrates the nonlinear vehicle model (+ the disturbance states).
 
     (filterpy: override ``predict_x`` and set ``F``; see docs/platform-notes.md.)
     """
 
-    def __init__(self, vehicle: VehicleParams, h: float):
-        super().__init__(dim_x=6, dim_z=4)
+    def __init__(self, vehicle: VehicleParams, h: float, dim_x: int = 6):
+        super().__init__(dim_x=dim_x, dim_z=len(CHANNELS) if dim_x > 6 else 4)
         self.vehicle = vehicle
         self.h = h
         self.tau_stages = np.zeros((3, 3))
         self.flow: BodyFlow | None = None
+        self.d_decay = 1.0
 
     def predict_x(self, u=0):
-        self.x = rk4_step(self.vehicle, self.x[:, 0], self.h, self.tau_stages, self.flow).reshape(6, 1)
+        if self.dim_x == 6:
+            self.x = rk4_step(self.vehicle, self.x[:, 0], self.h, self.tau_stages, self.flow).reshape(6, 1)
+            return
+        d = self.x[6:, 0]
+        x6 = rk4_step(self.vehicle, self.x[:6, 0], self.h, self.tau_stages + d, self.flow)
+        self.x = np.concatenate([x6, self.d_decay * d]).reshape(-1, 1)
 
 
 class PlanarEKF:
@@ -58,27 +76,38 @@ class PlanarEKF:
     def __init__(self, vehicle: VehicleParams, params: ParameterTable, h: float):
         self.params = params
         self.h = float(h)
-        self.kf = _ModelEKF(vehicle, self.h)
+        self.aided = int(params.get("WK_EKF_MODE", 0)) == 1
+        self.n = 9 if self.aided else 6
+        self.channels = CHANNELS if self.aided else CHANNELS[:4]
+        self.kf = _ModelEKF(vehicle, self.h, self.n)
         self.initialised = False
-        self.rejected = dict.fromkeys(CHANNELS, 0)
-        self.accepted = dict.fromkeys(CHANNELS, 0)
-        self.resets = dict.fromkeys(CHANNELS, 0)
-        self.last_nis = np.full(4, np.nan)   # normalised innovation squared per channel, last tick
-        self._last_accept_t = np.full(4, -np.inf)
+        self.rejected = dict.fromkeys(self.channels, 0)
+        self.accepted = dict.fromkeys(self.channels, 0)
+        self.resets = dict.fromkeys(self.channels, 0)
+        m = len(self.channels)
+        self.last_nis = np.full(m, np.nan)   # normalised innovation squared per channel, last tick
+        self.nis_total = (0.0, 0)            # the accepted readings' joint NIS yᵀS⁻¹y and its dof, last tick
+        self._last_accept_t = np.full(m, -np.inf)
         self._q_key: tuple | None = None
-        self._q = np.zeros((6, 6))
-        self._H: dict[tuple, np.ndarray] = {}   # measurement matrices by accepted-channel pattern
+        self._q = np.zeros((self.n, self.n))
 
     # ------------------------------------------------------------------ state
     @property
     def x(self) -> np.ndarray:
-        return self.kf.x[:, 0]
+        """[x, z, θ, u, w, q] (the disturbance, aided, is :attr:`disturbance`)."""
+        return self.kf.x[:6, 0]
+
+    @property
+    def disturbance(self) -> np.ndarray:
+        """The estimated disturbance wrench [X, Z, M] (N, N, N m, body); zeros in the paper's mode."""
+        return self.kf.x[6:, 0].copy() if self.aided else np.zeros(3)
 
     @property
     def P(self) -> np.ndarray:
         return self.kf.P
 
     def sigma(self) -> np.ndarray:
+        """1-σ of every state (6, or 9 aided)."""
         return np.sqrt(np.diag(self.kf.P))
 
     def converged(self) -> bool:
@@ -90,31 +119,55 @@ class PlanarEKF:
                     and s[1] < self.params["WK_EKF_CONV"])
 
     def initialise(self, frame: SensorFrame, x_fallback: float = 0.0) -> None:
-        """Start from a sensor frame: measured states from it, velocities zero with 0.5 m/s 1-σ."""
+        """Start from a sensor frame: measured states from it, velocities zero with 0.5 m/s 1-σ
+        (aided: the DVL's when it has a reading; the disturbance zero with 50 N, 50 N, 5 N m 1-σ)."""
         p = self.params
         x = frame.x if np.isfinite(frame.x) else x_fallback
-        self.kf.x = np.array([[x], [frame.depth], [frame.pitch], [0.0], [0.0], [frame.pitch_rate]])
         pos_var = p["WK_EKF_R_POS"] ** 2 if np.isfinite(frame.x) else 100.0
-        self.kf.P = np.diag([pos_var, p["WK_EKF_R_DEPTH"] ** 2, p["WK_EKF_R_PITCH"] ** 2,
-                             0.25, 0.25, p["WK_EKF_R_GYRO"] ** 2])
+        x0 = [x, frame.depth, frame.pitch, 0.0, 0.0, frame.pitch_rate]
+        var = [pos_var, p["WK_EKF_R_DEPTH"] ** 2, p["WK_EKF_R_PITCH"] ** 2, 0.25, 0.25, p["WK_EKF_R_GYRO"] ** 2]
+        if self.aided:
+            if np.isfinite(frame.dvl_u) and np.isfinite(frame.dvl_w):
+                x0[3:5] = [frame.dvl_u, frame.dvl_w]
+                var[3:5] = [p["WK_EKF_R_DVL"] ** 2] * 2
+            x0 += [0.0, 0.0, 0.0]
+            var += [50.0**2, 50.0**2, 5.0**2]
+        self.kf.x = np.array(x0, dtype=float).reshape(-1, 1)
+        self.kf.P = np.diag(var)
         self._last_accept_t[:] = frame.t
         self.initialised = True
 
     # ------------------------------------------------------------------ predict
     def _jacobian(self, x: np.ndarray, tau: np.ndarray, flow: BodyFlow | None) -> np.ndarray:
-        """F ≈ I + A h + (A h)²/2 with A the model's Jacobian at x under τ in the flow's first instant."""
-        A = rates_jacobian(self.kf.vehicle, x, tau, flow, 0)
+        """F ≈ I + A h + (A h)²/2 with A the model's Jacobian at x under τ in the flow's first instant
+        (aided: with the disturbance's block B h + A B h²/2, B = ∂ẋ/∂d = [0; M⁻¹], and its decay)."""
+        A = rates_jacobian(self.kf.vehicle, x[:6], tau, flow, 0)
         Ah = A * self.h
-        return np.eye(6) + Ah + 0.5 * Ah @ Ah
+        F6 = np.eye(6) + Ah + 0.5 * Ah @ Ah
+        if not self.aided:
+            return F6
+        B = np.zeros((6, 3))
+        B[3:, :] = self.kf.vehicle.M_inv
+        F = np.eye(9)
+        F[:6, :6] = F6
+        F[:6, 6:] = B * self.h + 0.5 * self.h * (Ah @ B)
+        F[6:, 6:] *= self.kf.d_decay
+        return F
 
     def _process_noise(self) -> np.ndarray:
         """Q = diag(q² h) from the WK_EKF_Q_* parameters; rebuilt only when one of them changes."""
         p, h = self.params, self.h
-        key = (p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"], p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"])
+        if not self.aided:
+            names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
+        else:
+            names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
+                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
+        key = tuple(p[n] for n in names)
         if key != self._q_key:
-            q = np.array([p["WK_EKF_Q_POS"], p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"],
-                          p["WK_EKF_Q_VEL"], p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"]])
+            q = np.array(key[:self.n])
             self._q, self._q_key = np.diag(q**2 * h), key
+            tc = key[9] if self.aided else 0.0
+            self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
         return self._q
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
@@ -124,35 +177,74 @@ class PlanarEKF:
             return
         self.kf.tau_stages = np.asarray(tau_stages, dtype=float)
         self.kf.flow = flow
-        self.kf.F = self._jacobian(self.x.copy(), self.kf.tau_stages[0], flow)
         self.kf.Q = self._process_noise()
+        tau0 = self.kf.tau_stages[0] + (self.kf.x[6:, 0] if self.aided else 0.0)
+        self.kf.F = self._jacobian(self.kf.x[:, 0].copy(), tau0, flow)
         self.kf.predict()
 
     # ------------------------------------------------------------------ update
     def measurement_noise(self) -> np.ndarray:
         p = self.params
-        return np.array([p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]) ** 2
+        r = [p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]
+        if self.aided:
+            r += [p["WK_EKF_R_DVL"]] * 2 + [p["WK_EKF_R_ACC"]] * 2
+        return np.array(r) ** 2
+
+    def _accel_model(self) -> tuple[np.ndarray, np.ndarray]:
+        """The accelerometer's predicted specific force [f_x, f_z] and its Jacobian (2, 9) at the state,
+        under the thrust the mixer expected at the end of the period, + d, in the flow's last instant."""
+        veh, kf = self.kf.vehicle, self.kf
+        x6, d = kf.x[:6, 0], kf.x[6:, 0]
+        tau = kf.tau_stages[2] + d
+        rates = state_rates_at(veh, x6, tau, kf.flow, 2)
+        A = rates_jacobian(veh, x6, tau, kf.flow, 2)
+        th, u, w, q = x6[2], x6[3], x6[4], x6[5]
+        g, c, s = veh.g, math.cos(th), math.sin(th)
+        hx = np.array([rates[3] + q * w + g * s, rates[4] - q * u - g * c])
+        H = np.zeros((2, 9))
+        H[:, :6] = A[3:5, :]
+        H[0, 2] += g * c
+        H[0, 4] += q
+        H[0, 5] += w
+        H[1, 2] += g * s
+        H[1, 3] -= q
+        H[1, 5] -= u
+        H[:, 6:] = veh.M_inv[:2, :]
+        return hx, H
+
+    def _predicted(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted measurements h(x) and their Jacobian H (channels × states)."""
+        m = len(self.channels)
+        idx = np.asarray(MEASURED_STATES[:min(m, 6)])
+        hx = np.full(m, np.nan)
+        H = np.zeros((m, self.n))
+        hx[:idx.size] = self.kf.x[idx, 0]
+        H[np.arange(idx.size), idx] = 1.0
+        if self.aided and np.any(np.isfinite(z[_ACCEL])):
+            hx[_ACCEL], H[_ACCEL] = self._accel_model()
+        return hx, H
 
     def update(self, frame: SensorFrame) -> np.ndarray:
         """Fuse the frame's available readings; returns the per-channel accepted mask."""
         z = frame.as_vector()
+        if self.aided:
+            z = np.concatenate([z, frame.aiding_vector()])
         if not self.initialised:
-            if np.all(np.isfinite(z[1:])):
+            if np.all(np.isfinite(z[1:4])):
                 self.initialise(frame)
             return np.isfinite(z)
-        idx = np.asarray(MEASURED_STATES)
         r = self.measurement_noise()
-        x, P = self.x, self.kf.P
-        y = z - x[idx]
-        S = P[idx, idx] + r
+        hx, H = self._predicted(z)
+        y = z - hx
+        S = np.einsum("ij,jk,ik->i", H, self.kf.P, H) + r
         with np.errstate(invalid="ignore"):
             nis = y * y / S
         self.last_nis = nis
         avail = np.isfinite(z)
-        gate = self.params["WK_EKF_GATE"] ** 2
-        accept = avail & (nis <= gate)
+        accept = avail & (nis <= self.params["WK_EKF_GATE"] ** 2)
         reset = avail & ~accept & (frame.t - self._last_accept_t > self.params["WK_EKF_RST_T"])
-        for i, name in enumerate(CHANNELS):
+        reset[_ACCEL] = False                     # no state to reset to an acceleration
+        for i, name in enumerate(self.channels):
             if avail[i]:
                 if accept[i]:
                     self.accepted[name] += 1
@@ -160,35 +252,32 @@ class PlanarEKF:
                     self.rejected[name] += 1
         self._last_accept_t[accept | reset] = frame.t
         for k in np.flatnonzero(reset).tolist():
-            j = int(idx[k])
+            j = int(MEASURED_STATES[k])
             self.kf.x[j, 0] = z[k]
             self.kf.P[j, :] = 0.0
             self.kf.P[:, j] = 0.0
             self.kf.P[j, j] = r[k]
-            self.resets[CHANNELS[k]] += 1
+            self.resets[self.channels[k]] += 1
+        self.nis_total = (0.0, 0)
         if accept.any():
-            key = tuple(accept.tolist())
-            H = self._H.get(key)
-            if H is None:
-                rows = idx[accept]
-                H = np.zeros((rows.size, 6))
-                H[np.arange(rows.size), rows] = 1.0
-                self._H[key] = H
-            self._fuse(z[accept].reshape(-1, 1), H, np.diag(r[accept]))
+            if reset.any():                       # a reset moved the state: predict the others again
+                hx, H = self._predicted(z)
+            self._fuse(z[accept].reshape(-1, 1), hx[accept].reshape(-1, 1), H[accept], np.diag(r[accept]))
         return accept
 
-    def _fuse(self, z: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:
-        """filterpy's ``ExtendedKalmanFilter.update(z, HJacobian=H, Hx=H x, R)``, term by term and in its
+    def _fuse(self, z: np.ndarray, hx: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:
+        """filterpy's ``ExtendedKalmanFilter.update(z, HJacobian=H, Hx=h(x), R)``, term by term and in its
         arithmetic (Joseph form, scipy's inverse), without its per-call deep copies and closures."""
         kf = self.kf
         PHT = np.dot(kf.P, H.T)
         kf.S = np.dot(H, PHT) + R
         kf.SI = linalg.inv(kf.S)
         kf.K = PHT.dot(kf.SI)
-        kf.y = np.subtract(z, H @ kf.x)
+        kf.y = np.subtract(z, hx)
         kf.x = kf.x + np.dot(kf.K, kf.y)
         I_KH = kf._I - np.dot(kf.K, H)
         kf.P = np.dot(I_KH, kf.P).dot(I_KH.T) + np.dot(kf.K, R).dot(kf.K.T)
         kf._log_likelihood = kf._likelihood = kf._mahalanobis = None
         kf.z, kf.R = z, R
         kf.x_post, kf.P_post = kf.x.copy(), kf.P.copy()
+        self.nis_total = (float(kf.y[:, 0] @ kf.SI @ kf.y[:, 0]), int(z.shape[0]))

@@ -53,6 +53,8 @@ class TickRecord:
     ff_active: bool
     forecast_seq: int
     ff_weight: np.ndarray = field(default_factory=lambda: np.ones(3))   # FF monitor's weights [X, Z, M]
+    d_hat: np.ndarray = field(default_factory=lambda: np.zeros(3))      # EKF's disturbance estimate [X, Z, M]
+    nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
 
 
 TICK_COLUMNS = (
@@ -61,6 +63,8 @@ TICK_COLUMNS = (
     + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
     + [f"pwm{i}" for i in range(1, 9)]
     + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
+    + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
+    + ["nis", "nis_dof"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
 
@@ -68,7 +72,8 @@ TICK_COLUMNS = (
 def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
-            float(r.ff_active), *r.ff_weight, float(r.control.saturated)]
+            float(r.ff_active), *r.ff_weight, float(r.control.saturated), *r.sigma[3:6], *r.d_hat,
+            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1])]
 
 
 @dataclass(frozen=True)
@@ -131,6 +136,7 @@ class Firmware:
         self._pending: Prediction | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
+        self._depth_t = -math.inf        # vehicle time of the last depth reading
         self._ff_was_active = False
         self.loop_rate_hz = loop_rate_hz
         self.tasks = [Task("control", loop_rate_hz, self.control_task)]
@@ -344,17 +350,21 @@ class Firmware:
         flow, seq = self.predicted_flow(t)
         ff_active, flow, ff = self._feedforward(flow)
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
-        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
+        d_hat = self.ekf.disturbance
+        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h, d_hat)
         mix = self._mix(control, t)
         self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
-                               ff.tau_e_hat, ff_active, seq, ff.weight)
+                               ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total)
         if self.on_tick is not None:
             self.on_tick(self.last)
 
     def _estimate(self, frame: SensorFrame, t: float) -> None:
         """Sensor health, the EKF's predict (last tick's hand-off) and update, and the failsafes."""
-        healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[1:])))
+        if math.isfinite(frame.depth):
+            self._depth_t = t
+        # depth may come slower than the loop (SIM_DEPTH_RATE): healthy while it is under 0.5 s old
+        healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[2:])) and t - self._depth_t <= 0.5)
         if healthy != self.sensors_healthy and self.ekf.initialised:
             self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
                      "Sensors back" if healthy else "Sensors lost: thrusters neutral")

@@ -21,7 +21,7 @@ from bridge.models.thrusters import NEUTRAL_PWM_US
 
 from .clocks import Clock, SimClock
 from .params import ParameterTable
-from .sensors import SensorFrame, SimulatedSensors
+from .sensors import SensorFrame, SimulatedSensors, specific_force
 
 __all__ = ["HAL", "PWM_CHANNELS", "InProcessSITLHAL", "PlantLike"]
 
@@ -74,7 +74,10 @@ class InProcessSITLHAL(HAL):
 
     def read_sensors(self) -> SensorFrame:
         s = self.plant.state
-        return self.sensors.read(s.t, s.eta, s.nu)
+        nu_dot = getattr(self.plant, "nu_dot", None)     # the plant's body acceleration, if it keeps one
+        g = getattr(getattr(self.plant, "vehicle", None), "g", None)
+        accel = None if nu_dot is None or g is None else specific_force(s.eta, s.nu, nu_dot, g)
+        return self.sensors.read(s.t, s.eta, s.nu, accel)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.last_pwm = np.array(pwm, dtype=np.int64)

@@ -56,6 +56,7 @@ class JSONState:
     nu: np.ndarray               # [u, w, q]
     thrust: np.ndarray | None    # per-thruster thrust (N) when the server sends it
     frame_count: int | None      # the servo frame this answers, when the server says
+    accel: np.ndarray | None = None   # specific force [f_x, f_z] (m/s², body FRD): the IMU's imu.accel_body
 
 
 @dataclass
@@ -173,7 +174,7 @@ class JSONSITLHAL(HAL):
             t = self.clock.now_ns() * 1e-9
             nan = math.nan
             return SensorFrame(t, nan, nan, nan, nan, healthy=False)
-        return self.sensors.read(s.t, s.eta, s.nu)
+        return self.sensors.read(s.t, s.eta, s.nu, s.accel)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         """Send the next servo frame and wait for the world to answer it (bounded)."""
@@ -248,7 +249,7 @@ class JSONSITLHAL(HAL):
             self._offset = prev.t - ts
             self.counters.physics_resets += 1
         t = ts + self._offset
-        self.state = JSONState(t, ts, reply.eta, reply.nu, reply.thrust, count)
+        self.state = JSONState(t, ts, reply.eta, reply.nu, reply.thrust, count, reply.accel)
         self.silent = False
         self.counters.replies += 1
         if self._simulated_clock():

@@ -11,7 +11,16 @@ Sensors (paper §IV: sensor noise on, EKF in the loop; the paper gives no values
 * depth (m) from a Bar30-like pressure sensor, every tick; reported also as
   absolute pressure (Pa) for telemetry. The wave's dynamic pressure is not
   modelled: the plant's state carries no pressure field;
-* pitch (rad) and pitch rate (rad/s) from the IMU/AHRS, every tick.
+* pitch (rad) and pitch rate (rad/s) from the IMU/AHRS, every tick;
+* body velocity [u, w] (m/s) from a DVL with bottom lock (Water Linked A50 class) at
+  ``SIM_DVL_RATE`` Hz, only while the altitude ``SIM_WATER_DEPTH`` − depth is within
+  [``SIM_DVL_ALT_MIN``, ``SIM_DVL_ALT_MAX``], and a ping lost with probability ``SIM_DVL_DROP``;
+* the accelerometer's specific force [f_x, f_z] (m/s², body FRD) every tick, when the
+  HAL knows the body's acceleration (the in-process plant's ν̇; JSON SITL's ``imu.accel_body``).
+
+The DVL and accelerometer draw their noise from a second stream seeded from the same
+seed, so the first four channels' noise is the same as without them.
+docs/estimator.md gives each sensor's source.
 """
 from __future__ import annotations
 
@@ -22,7 +31,7 @@ import numpy as np
 
 from .params import ParameterTable
 
-__all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure"]
+__all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure", "specific_force"]
 
 ATM_PA = 101325.0          # Pa at the surface
 RHO_SEAWATER = 1025.0      # kg/m³
@@ -32,6 +41,13 @@ G0 = 9.80665               # m/s², as pressure-to-depth conversions use
 def depth_to_pressure(depth_m: float) -> float:
     """Absolute pressure (Pa) at a depth (m) in sea water."""
     return ATM_PA + RHO_SEAWATER * G0 * depth_m
+
+
+def specific_force(eta, nu, nu_dot, g: float = G0) -> np.ndarray:
+    """What a body-fixed accelerometer reads, [f_x, f_z] (m/s², FRD): ν̇ + ω × v − g in the body frame
+    (the JSON SITL state's ``imu.accel_body``, :func:`bridge.json_sitl.state_message`)."""
+    th, (u, w, q), (du, dw) = float(eta[2]), nu, nu_dot[:2]
+    return np.array([du + q * w + g * math.sin(th), dw - q * u - g * math.cos(th)])
 
 
 @dataclass(frozen=True)
@@ -44,10 +60,18 @@ class SensorFrame:
     pitch: float        # rad
     pitch_rate: float   # rad/s
     healthy: bool = True
+    dvl_u: float = math.nan    # m/s, body surge velocity over ground (DVL bottom lock)
+    dvl_w: float = math.nan    # m/s, body heave velocity over ground
+    acc_x: float = math.nan    # m/s², specific force, body x (forward)
+    acc_z: float = math.nan    # m/s², specific force, body z (down)
 
     def as_vector(self) -> np.ndarray:
         """[x, depth, θ, q] in the estimator's measurement order."""
         return np.array([self.x, self.depth, self.pitch, self.pitch_rate])
+
+    def aiding_vector(self) -> np.ndarray:
+        """[u, w, f_x, f_z]: the aided estimator's further channels (DVL, accelerometer)."""
+        return np.array([self.dvl_u, self.dvl_w, self.acc_x, self.acc_z])
 
 
 class SimulatedSensors:
@@ -56,20 +80,43 @@ class SimulatedSensors:
     def __init__(self, params: ParameterTable, seed: int):
         self.params = params
         self.rng = np.random.default_rng(seed)
-        self._last_fix_slot = -1
+        self.rng_aid = np.random.default_rng([int(seed) % 2**63, 0xD71])   # DVL and accelerometer
+        self._last_slot = {"pos": -1, "depth": -1, "dvl": -1}
 
-    def read(self, t: float, eta, nu) -> SensorFrame:
-        """Sample the sensors at time t (s) for truth η = [x, z, θ], ν = [u, w, q]."""
+    def _due(self, name: str, t: float, rate: float) -> bool:
+        """Is a new reading of the sensor at ``rate`` Hz due at t (its slot changed since the last read)?"""
+        if rate <= 0.0:
+            return False
+        slot = math.floor(t * rate + 1e-9)
+        due = slot != self._last_slot[name]
+        self._last_slot[name] = slot
+        return due
+
+    def dvl_in_range(self, depth: float) -> bool:
+        """Bottom lock possible at this depth: the altitude within the DVL's range."""
+        p = self.params
+        return p["SIM_DVL_ALT_MIN"] <= p["SIM_WATER_DEPTH"] - depth <= p["SIM_DVL_ALT_MAX"]
+
+    def read(self, t: float, eta, nu, accel=None) -> SensorFrame:
+        """Sample the sensors at time t (s) for truth η = [x, z, θ], ν = [u, w, q] and, when known,
+        the specific force ``accel`` = [f_x, f_z] (m/s², :func:`specific_force`)."""
         p = self.params
         # Draw every channel every tick so the noise sequence is independent of rates.
         n = self.rng.standard_normal(4)
-        slot = math.floor(t * p["SIM_POS_RATE"] + 1e-9)
-        fix = slot != self._last_fix_slot
-        self._last_fix_slot = slot
+        a = self.rng_aid.standard_normal(5)
+        fix = self._due("pos", t, p["SIM_POS_RATE"])
+        baro = self._due("depth", t, p["SIM_DEPTH_RATE"])
+        dvl = (self._due("dvl", t, p["SIM_DVL_RATE"]) and self.dvl_in_range(float(eta[1]))
+               and 0.5 * (1.0 + math.erf(a[4] / math.sqrt(2.0))) >= p["SIM_DVL_DROP"])
+        acc = accel is not None and bool(np.all(np.isfinite(accel)))
         return SensorFrame(
             t=t,
             x=float(eta[0] + p["SIM_POS_RND"] * n[0]) if fix else math.nan,
-            depth=float(eta[1] + p["SIM_DEPTH_RND"] * n[1]),
+            depth=float(eta[1] + p["SIM_DEPTH_RND"] * n[1]) if baro else math.nan,
             pitch=float(eta[2] + p["SIM_PITCH_RND"] * n[2]),
             pitch_rate=float(nu[2] + p["SIM_GYRO_RND"] * n[3]),
+            dvl_u=float(nu[0] + p["SIM_DVL_RND"] * a[0]) if dvl else math.nan,
+            dvl_w=float(nu[1] + p["SIM_DVL_RND"] * a[1]) if dvl else math.nan,
+            acc_x=float(accel[0] + p["SIM_ACC_RND"] * a[2]) if acc else math.nan,
+            acc_z=float(accel[1] + p["SIM_ACC_RND"] * a[3]) if acc else math.nan,
         )

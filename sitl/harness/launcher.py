@@ -153,7 +153,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
     children: list[_Child] = []
     try:
-        _start_processes(opt, sea.seed, duration, out, children)
+        _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, setpoint, duration, f"sim {sea.name} {spec.label}", out, children, progress)
     except KeyboardInterrupt:
         raise LaunchError("interrupted", 130) from None
@@ -175,8 +175,10 @@ def launch(opt: SimOptions, progress=None) -> dict:
     return results
 
 
-def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child]) -> None:
-    """The forecast service (C-PD+FF only), the plant and the firmware, each waited for until ready."""
+def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+                     water_depth: float) -> None:
+    """The forecast service (C-PD+FF only), the plant and the firmware, each waited for until ready
+    (the firmware told the site's ``water_depth`` (m) for its DVL model)."""
     spec = opt.spec
     # One BLAS thread per process: three processes already share the cores
     env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
@@ -204,7 +206,8 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
                 "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
                 "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
     firmware += ["--speedup", str(opt.speedup or 0)]      # explicit: 0 is unpaced (the default with --mavlink is 1)
-    firmware += ["--set", f"WK_FF_ENABLE={1 if spec.ff else 0}"]
+    firmware += ["--set", f"WK_FF_ENABLE={1 if spec.ff else 0}", "--set", f"WK_DOB_ENABLE={1 if spec.dob else 0}",
+                 "--set", f"SIM_WATER_DEPTH={water_depth!r}"]
     # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
     # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
     # (a result must not depend on how fast the machine is).

@@ -16,8 +16,10 @@ from dataclasses import dataclass, field
 
 __all__ = ["CONTROLLERS", "FORECAST_SOURCES", "PAPER_CASES", "PAPER_VARIANTS", "RunSpec"]
 
-CONTROLLERS = ("cpd", "cpd_ff")
-"""``cpd``: cascaded PD feedback alone; ``cpd_ff``: with the wave feed-forward (paper Eq. 12)."""
+CONTROLLERS = ("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob")
+"""``cpd``: cascaded PD feedback alone; ``cpd_ff``: with the wave feed-forward (paper Eq. 12);
+``cpd_dob``, ``cpd_ff_dob``: the same + the aided EKF's disturbance estimate fed back (a disturbance
+observer, ``WK_DOB_ENABLE``; docs/estimator.md)."""
 
 FORECAST_SOURCES = ("oracle", "dswp")
 """``oracle``: the true sea's components, optionally with the paper's injected error (``snr_db``);
@@ -59,7 +61,12 @@ class RunSpec:
     @property
     def ff(self) -> bool:
         """Does the firmware run the wave feed-forward?"""
-        return self.controller == "cpd_ff"
+        return self.controller in ("cpd_ff", "cpd_ff_dob")
+
+    @property
+    def dob(self) -> bool:
+        """Does the firmware feed the estimated disturbance back (disturbance observer)?"""
+        return self.controller.endswith("_dob")
 
     @property
     def forecast_source(self) -> str | None:
@@ -69,11 +76,12 @@ class RunSpec:
     @property
     def label(self) -> str:
         """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``."""
+        dob = "+DOB" if self.dob else ""
         if not self.ff:
-            return "C-PD"
+            return "C-PD" + dob
         if self.forecast == "dswp":
-            return "C-PD+FF DSWP"
-        return "C-PD+FF exact" if self.snr_db is None else f"C-PD+FF {self.snr_db:g} dB"
+            return f"C-PD+FF{dob} DSWP"
+        return f"C-PD+FF{dob} exact" if self.snr_db is None else f"C-PD+FF{dob} {self.snr_db:g} dB"
 
 
 PAPER_CASES = ("W1", "W2", "W3")

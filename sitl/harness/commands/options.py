@@ -222,8 +222,8 @@ def run_spec(args: argparse.Namespace) -> Any:
 
     forecast = getattr(args, "forecast", "oracle")
     snr = getattr(args, "forecast_snr_db", None)
-    if snr is not None and (args.controller != "cpd_ff" or forecast != "oracle"):
-        raise UsageError("--forecast-snr-db applies only to --controller cpd_ff with --forecast oracle "
+    if snr is not None and (args.controller not in ("cpd_ff", "cpd_ff_dob") or forecast != "oracle"):
+        raise UsageError("--forecast-snr-db applies only to --controller cpd_ff(_dob) with --forecast oracle "
                          f"(got --controller {args.controller} --forecast {forecast})")
     check_duration(getattr(args, "duration", None), args.mission)
     try:
@@ -251,8 +251,9 @@ def add_common(p: argparse.ArgumentParser) -> None:
 
 def add_controller(p: argparse.ArgumentParser, forecast_help: str = "forecast source") -> None:
     """--controller, --forecast, --forecast-snr-db."""
-    p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff",
-                   help="cpd: cascaded PD feedback; cpd_ff: with the wave feed-forward")
+    p.add_argument("--controller", choices=("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob"), default="cpd_ff",
+                   help="cpd: cascaded PD feedback; cpd_ff: with the wave feed-forward; *_dob: + the estimated "
+                   "disturbance fed back (disturbance observer)")
     p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
                    help=f"{forecast_help}: oracle (the sea's own components) or dswp (predicted from the up-wave buoy)")
     p.add_argument("--forecast-snr-db", type=snr_db, default=None,
