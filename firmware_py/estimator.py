@@ -154,17 +154,20 @@ class PlanarEKF:
         F[6:, 6:] *= self.kf.d_decay
         return F
 
-    def _process_noise(self) -> np.ndarray:
-        """Q = diag(q² h) from the WK_EKF_Q_* parameters; rebuilt only when one of them changes."""
+    def _process_noise(self, forecast: bool = False) -> np.ndarray:
+        """Q = diag(q² h) from the WK_EKF_Q_* parameters (aided, with a forecast in the model: the
+        disturbance's scaled by WK_EKF_QD_FF); rebuilt only when one of them changes."""
         p, h = self.params, self.h
         if not self.aided:
             names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
         else:
-            names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
-                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
-        key = tuple(p[n] for n in names)
+            names = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
+                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC", "WK_EKF_QD_FF")
+        key = (*(p[n] for n in names), forecast)
         if key != self._q_key:
             q = np.array(key[:self.n])
+            if self.aided and forecast:
+                q[6:] *= p["WK_EKF_QD_FF"]
             self._q, self._q_key = np.diag(q**2 * h), key
             tc = key[9] if self.aided else 0.0
             self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
@@ -177,7 +180,7 @@ class PlanarEKF:
             return
         self.kf.tau_stages = np.asarray(tau_stages, dtype=float)
         self.kf.flow = flow
-        self.kf.Q = self._process_noise()
+        self.kf.Q = self._process_noise(flow is not None)
         tau0 = self.kf.tau_stages[0] + (self.kf.x[6:, 0] if self.aided else 0.0)
         self.kf.F = self._jacobian(self.kf.x[:, 0].copy(), tau0, flow)
         self.kf.predict()

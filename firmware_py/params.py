@@ -168,10 +168,14 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_R_GYRO", 1e-5, 1.0, "rad/s", "pitch-rate noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_MODE", 0, 1, "", "estimator: 0 the paper's (position, depth, pitch, gyro; 6 states), "
              "1 aided (+ DVL, accelerometer, 3 disturbance states); read at boot", ptype="INT8"),
+    ParamDef("WK_EKF_Q_POS_A", 0.0, 10.0, "m/s^0.5", "aided mode: process noise density on x and z"),
+    ParamDef("WK_EKF_Q_ANG_A", 0.0, 10.0, "rad/s^0.5", "aided mode: process noise density on pitch"),
     ParamDef("WK_EKF_Q_VEL_A", 0.0, 100.0, "m/s^1.5", "aided mode: process noise density on u and w"),
     ParamDef("WK_EKF_Q_RATE_A", 0.0, 100.0, "rad/s^1.5", "aided mode: process noise density on q"),
     *_axes("WK_EKF_QD", 0.0, 10000.0, ("N/s^0.5", "N/s^0.5", "N m/s^0.5"),
            "aided mode: process noise density of the disturbance force (random walk)"),
+    ParamDef("WK_EKF_QD_FF", 0.0, 1.0, "", "aided mode: scale on WK_EKF_QD_* while a forecast's flow is in the "
+             "model (the disturbance is then only the forecast's error)"),
     ParamDef("WK_EKF_D_TC", 0.0, 1000.0, "s", "aided mode: disturbance correlation time; 0 = random walk"),
     ParamDef("WK_EKF_R_DVL", 1e-5, 1.0, "m/s", "DVL velocity noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_ACC", 1e-4, 10.0, "m/s^2", "accelerometer noise (1 sigma) the estimator assumes"),
