@@ -20,7 +20,8 @@ from sitl.sea import Sea
 from .metrics import station_keeping_metrics
 from .spec import RunSpec
 
-__all__ = ["TIMESERIES_COLUMNS", "RunResult", "elevation_along", "mission_results", "write_results"]
+__all__ = ["TIMESERIES_COLUMNS", "RunResult", "ekf_consistency", "elevation_along", "mission_results",
+           "write_results"]
 
 TIMESERIES_COLUMNS = (
     "t", "x", "z", "theta", "u", "w", "q",             # truth at the tick
@@ -43,6 +44,31 @@ class RunResult:
 def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
     """Wave elevation ζ (m) at the points (x[i], t[i]), in chunks to bound the (points × components) memory."""
     return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
+
+
+STATES = ("x", "z", "theta", "u", "w", "q")
+CONSISTENCY_SKIP_S = 5.0
+"""Consistency statistics leave out the first seconds (initial transient), as issue #19's figures do."""
+
+
+def ekf_consistency(log: np.ndarray, skip_s: float = CONSISTENCY_SKIP_S) -> dict[str, Any]:
+    """The estimator against the truth after ``skip_s``: per state the mean NEES e²/σ² and the share of
+    errors within 2σ, the velocity error's RMS over the true velocity's, and the mean joint NIS per dof."""
+    c = COLUMN
+    k = log[:, 0] > skip_s
+    if not np.any(k):
+        return {}
+    err = log[k, c["x_hat"]:c["q_hat"] + 1] - log[k, 1:7]
+    sig = log[k][:, [c[f"sigma_{n}"] for n in STATES]]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        nees = np.mean((err / sig) ** 2, axis=0)
+        within = np.mean(np.abs(err) <= 2.0 * sig, axis=0)
+        vel = np.sqrt(np.mean(err[:, 3:] ** 2, axis=0)) / np.sqrt(np.mean(log[k, 4:7] ** 2, axis=0))
+    dof = float(np.sum(log[k, c["nis_dof"]]))
+    return {"nees": dict(zip(STATES, nees.tolist(), strict=True)),
+            "within_2sigma": dict(zip(STATES, within.tolist(), strict=True)),
+            "vel_error_ratio": dict(zip(STATES[3:], vel.tolist(), strict=True)),
+            "nis_per_dof": float(np.sum(log[k, c["nis"]]) / dof) if dof > 0 else None}
 
 
 def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpoint: np.ndarray,
@@ -70,7 +96,8 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
         "hs_realised_m": float(4.0 * np.std(elevation_along(sea.components, np.full(len(log), setpoint[0]),
                                                             log[:, 0]))),
         "ekf": {"rms_error": dict(zip(("x", "z", "theta", "u", "w", "q"),
-                                      np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True))},
+                                      np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True)),
+                **ekf_consistency(log)},
         "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
         "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
         "faults": control_stats.get("faults"),
