@@ -152,7 +152,8 @@ def test_lost_position_fix_grows_the_covariance_honestly_and_trips_the_ekf_fails
     fw.request_arm(True)
     tick(mission, 20)
     read = hal.read_sensors
-    hal.read_sensors = lambda: dc_replace(read(), x=float("nan"))
+    # the position fix and the DVL (DVL-aided navigation) both lost: with the DVL the position drifts slowly
+    hal.read_sensors = lambda: dc_replace(read(), x=float("nan"), dvl_u=float("nan"), dvl_w=float("nan"))
     sigmas = []
     for _ in range(600):
         tick(mission)
