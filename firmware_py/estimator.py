@@ -90,6 +90,9 @@ class PlanarEKF:
         self._last_accept_t = np.full(m, -np.inf)
         self._q_key: tuple | None = None
         self._q = np.zeros((self.n, self.n))
+        self._qd_param = np.zeros(3)                 # WK_EKF_QD_* (aided)
+        self._dd_var: np.ndarray | None = None       # mean square change of d̂ per tick (adaptive Q_d)
+        self._d_prev: np.ndarray | None = None
 
     # ------------------------------------------------------------------ state
     @property
@@ -154,24 +157,49 @@ class PlanarEKF:
         F[6:, 6:] *= self.kf.d_decay
         return F
 
-    def _process_noise(self, forecast: bool = False) -> np.ndarray:
-        """Q = diag(q² h) from the WK_EKF_Q_* parameters (aided, with a forecast in the model: the
-        disturbance's scaled by WK_EKF_QD_FF); rebuilt only when one of them changes."""
+    def _process_noise(self) -> np.ndarray:
+        """Q = diag(q² h) from the WK_EKF_Q_* parameters, rebuilt only when one of them changes; aided,
+        the disturbance's density is adapted (``WK_EKF_QD_ADPT``, :meth:`_adapt`)."""
         p, h = self.params, self.h
         if not self.aided:
             names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
         else:
             names = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
-                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC", "WK_EKF_QD_FF")
-        key = (*(p[n] for n in names), forecast)
+                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
+        key = tuple(p[n] for n in names)
         if key != self._q_key:
             q = np.array(key[:self.n])
-            if self.aided and forecast:
-                q[6:] *= p["WK_EKF_QD_FF"]
             self._q, self._q_key = np.diag(q**2 * h), key
             tc = key[9] if self.aided else 0.0
             self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
-        return self._q
+            if self.aided:
+                self._qd_param = q[6:].copy()
+                if self._dd_var is None:
+                    self._dd_var = q[6:] ** 2 * h
+        if not self.aided:
+            return self._q
+        qd = self._qd_param
+        if p["WK_EKF_QD_ADPT"]:
+            qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), 0.05 * self._qd_param)
+        # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
+        # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
+        Qc, Mi = np.diag(qd**2), self.kf.vehicle.M_inv
+        Q = self._q.copy()
+        Q[6:, 6:] = Qc * h
+        Q[3:6, 6:] = Mi @ Qc * (h * h / 2.0)
+        Q[6:, 3:6] = Q[3:6, 6:].T
+        Q[3:6, 3:6] += Mi @ Qc @ Mi.T * (h**3 / 3.0)
+        return Q
+
+    def _adapt(self) -> None:
+        """Covariance matching for the disturbance's random walk (Mohamed & Schwarz 1999): q_d² h tracks the
+        mean square of the estimate's change per tick (time constant ``WK_EKF_QD_TC``), so the disturbance's
+        process noise follows the sea — small when a good forecast leaves little to explain, large without."""
+        d = self.kf.x[6:, 0]
+        if self._d_prev is not None and self._dd_var is not None:
+            a = min(1.0, self.h / self.params["WK_EKF_QD_TC"])
+            self._dd_var = self._dd_var + a * ((d - self._d_prev) ** 2 - self._dd_var)
+        self._d_prev = d.copy()
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -180,7 +208,7 @@ class PlanarEKF:
             return
         self.kf.tau_stages = np.asarray(tau_stages, dtype=float)
         self.kf.flow = flow
-        self.kf.Q = self._process_noise(flow is not None)
+        self.kf.Q = self._process_noise()
         tau0 = self.kf.tau_stages[0] + (self.kf.x[6:, 0] if self.aided else 0.0)
         self.kf.F = self._jacobian(self.kf.x[:, 0].copy(), tau0, flow)
         self.kf.predict()
@@ -266,6 +294,8 @@ class PlanarEKF:
             if reset.any():                       # a reset moved the state: predict the others again
                 hx, H = self._predicted(z)
             self._fuse(z[accept].reshape(-1, 1), hx[accept].reshape(-1, 1), H[accept], np.diag(r[accept]))
+        if self.aided:
+            self._adapt()
         return accept
 
     def _fuse(self, z: np.ndarray, hx: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:

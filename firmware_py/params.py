@@ -174,8 +174,10 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_Q_RATE_A", 0.0, 100.0, "rad/s^1.5", "aided mode: process noise density on q"),
     *_axes("WK_EKF_QD", 0.0, 10000.0, ("N/s^0.5", "N/s^0.5", "N m/s^0.5"),
            "aided mode: process noise density of the disturbance force (random walk)"),
-    ParamDef("WK_EKF_QD_FF", 0.0, 1.0, "", "aided mode: scale on WK_EKF_QD_* while a forecast's flow is in the "
-             "model (the disturbance is then only the forecast's error)"),
+    ParamDef("WK_EKF_QD_ADPT", 0, 1, "", "aided mode: adapt the disturbance's process noise to the mean square "
+             "change of its estimate (1) or keep WK_EKF_QD_* (0)", ptype="INT8"),
+    ParamDef("WK_EKF_QD_TC", 0.1, 1000.0, "s", "aided mode: averaging time of the adaptive disturbance noise"),
+    ParamDef("WK_EKF_QD_K", 0.1, 10.0, "", "aided mode: scale on the adapted disturbance noise density"),
     ParamDef("WK_EKF_D_TC", 0.0, 1000.0, "s", "aided mode: disturbance correlation time; 0 = random walk"),
     ParamDef("WK_EKF_R_DVL", 1e-5, 1.0, "m/s", "DVL velocity noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_ACC", 1e-4, 10.0, "m/s^2", "accelerometer noise (1 sigma) the estimator assumes"),
