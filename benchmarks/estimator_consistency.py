@@ -4,12 +4,16 @@
 
 1. ``estimator_nees_time.png``: one mission per controller (W1, seed 1): each state's NEES
    e²/σ² and the joint NIS per dof over time, as 10 s moving means, with the [0.5, 2] band.
-2. ``estimator_nees_seeds.png``: from a campaign's ``missions.parquet`` (configs/campaign/estimator.yaml):
+2. ``estimator_nees_seeds.png``: from a campaign's ``missions.jsonl`` (configs/campaign/estimator.yaml):
    every mission's mean NEES per state, and its share of errors within 2σ, by sea state and variant.
+3. With ``--table``: the campaign's table (markdown) per sea state and variant: mean RMSE over the three
+   DoF normalised by C-PD's per DoF, worst maximum error, total power (bootstrap 95 % intervals over
+   seeds), and the estimator's acceptance figures (velocity error ratio, NEES range, 2σ share).
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -62,29 +66,40 @@ def time_figure(out: Path, duration: float = 300.0) -> Path:
     return path
 
 
+def _rows(campaign: Path) -> list[dict]:
+    """The campaign's finished missions (its journal ``missions.jsonl``), the last row per mission id."""
+    rows: dict[str, dict] = {}
+    for line in (campaign / "missions.jsonl").read_text().splitlines():
+        if line.strip():
+            r = json.loads(line)
+            if r.get("status") == "ok":
+                rows[r["mission_id"]] = r
+    return list(rows.values())
+
+
+def _col(rows: list[dict], key: str) -> np.ndarray:
+    return np.array([r[key] for r in rows], dtype=float)
+
+
 def seeds_figure(campaign: Path, out: Path) -> Path:
     """Mean NEES and 2σ share per mission, by state, sea state and variant, from a campaign's rows."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import pandas as pd
-
-    df = pd.read_parquet(campaign / "missions.parquet")
-    df = df[(df["status"] == "ok") & df["variant"].isin(["cpd", "cpd_dob", "ff_exact", "ff_dob_exact",
-                                                         "ff_15db", "ff_dob_15db"])]
-    variants = list(dict.fromkeys(df["variant"]))
-    cases = sorted(df["case"].unique())
+    shown = ("cpd", "cpd_dob", "ff_exact", "ff_dob_exact", "ff_15db", "ff_dob_15db")
+    rows = [r for r in _rows(campaign) if r["variant"] in shown]
+    variants = [v for v in shown if any(r["variant"] == v for r in rows)]
+    cases = sorted({r["case"] for r in rows})
     fig, axes = plt.subplots(2, len(cases), figsize=(4.2 * len(cases), 6.5), sharey="row")
     axes = np.atleast_2d(axes).reshape(2, len(cases))
     for j, case in enumerate(cases):
-        d = df[df["case"] == case]
         for row, (prefix, band) in enumerate((("ekf_nees_", (0.5, 2.0)), ("ekf_within_2sigma_", (0.95, 1.0)))):
             ax = axes[row, j]
             for vi, v in enumerate(variants):
-                dv = d[d["variant"] == v]
+                dv = [r for r in rows if r["case"] == case and r["variant"] == v]
                 for si, s in enumerate(STATES):
                     xs = si + (vi - (len(variants) - 1) / 2) * 0.12
-                    ax.plot(np.full(len(dv), xs), dv[prefix + s], "o", ms=3, color=f"C{vi}",
+                    ax.plot(np.full(len(dv), xs), _col(dv, prefix + s), "o", ms=3, color=f"C{vi}",
                             label=v if si == 0 else None)
             ax.axhspan(*band, color="0.9", zorder=0)
             ax.set_xticks(range(len(STATES)), STATES)
@@ -98,12 +113,48 @@ def seeds_figure(campaign: Path, out: Path) -> Path:
     return path
 
 
+def _ci(values, seed: int = 0) -> str:
+    from sitl.harness.stats import bootstrap_ci
+
+    v = np.asarray(values, dtype=float)
+    lo, hi = bootstrap_ci(v, resamples=5000, seed=seed)
+    return f"{v.mean():.3g} [{lo:.3g}, {hi:.3g}]"
+
+
+def campaign_table(campaign: Path) -> str:
+    """The markdown table of docs/estimator.md from a campaign's rows (see the module docstring)."""
+    rows = _rows(campaign)
+    dofs = ("surge", "heave", "pitch")
+    head = ("| case | variant | n | RMSE / C-PD's (mean of 3 DoF) | worst max error x, z (m), θ (°) | power (W) "
+            "| vel. err / true u, w (max) | NEES min–max (all states, seeds) | min share within 2σ |")
+    lines = [head, "|" + "---|" * 9]
+    for case in sorted({r["case"] for r in rows}):
+        base = {r["seed"]: r for r in rows if r["case"] == case and r["variant"] == "cpd"}
+        for v in dict.fromkeys(r["variant"] for r in rows if r["case"] == case):
+            dv = sorted((r for r in rows if r["case"] == case and r["variant"] == v and r["seed"] in base),
+                        key=lambda r: r["seed"])
+            norm = [np.mean([r[f"rmse_{k}"] / base[r["seed"]][f"rmse_{k}"] for k in dofs]) for r in dv]
+            power = [sum(r[f"mean_power_w_{k}"] for k in dofs) for r in dv]
+            worst = (f"{_col(dv, 'max_abs_error_surge').max():.2f}, {_col(dv, 'max_abs_error_heave').max():.2f}, "
+                     f"{np.degrees(_col(dv, 'max_abs_error_pitch').max()):.1f}")
+            vel = max(_col(dv, "ekf_vel_error_ratio_u").max(), _col(dv, "ekf_vel_error_ratio_w").max())
+            nees = np.array([_col(dv, f"ekf_nees_{s}") for s in STATES])
+            within = np.array([_col(dv, f"ekf_within_2sigma_{s}") for s in STATES])
+            lines.append(f"| {case} | {v} | {len(dv)} | {_ci(norm)} | {worst} | {_ci(power)} | {vel:.3f} "
+                         f"| {nees.min():.2f}–{nees.max():.2f} | {within.min():.3f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--campaign", type=Path, default=None, help="a finished estimator campaign's folder")
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
     p.add_argument("--duration", type=float, default=300.0, help="the time figure's missions (s)")
+    p.add_argument("--table", action="store_true", help="only print the campaign's table (needs --campaign)")
     a = p.parse_args(argv)
+    if a.table and a.campaign is not None:
+        print(campaign_table(a.campaign))
+        return
     a.out.mkdir(parents=True, exist_ok=True)
     print(time_figure(a.out, a.duration))
     if a.campaign is not None:

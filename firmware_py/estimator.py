@@ -161,6 +161,7 @@ class PlanarEKF:
         """Q = diag(q² h) from the WK_EKF_Q_* parameters, rebuilt only when one of them changes; aided,
         the disturbance's density is adapted (``WK_EKF_QD_ADPT``, :meth:`_adapt`)."""
         p, h = self.params, self.h
+        names: tuple[str, ...]
         if not self.aided:
             names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
         else:
@@ -179,7 +180,7 @@ class PlanarEKF:
         if not self.aided:
             return self._q
         qd = self._qd_param
-        if p["WK_EKF_QD_ADPT"]:
+        if p["WK_EKF_QD_ADPT"] and self._dd_var is not None:
             qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), 0.05 * self._qd_param)
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
