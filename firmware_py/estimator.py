@@ -181,7 +181,7 @@ class PlanarEKF:
             return self._q
         qd = self._qd_param
         if p["WK_EKF_QD_ADPT"] and self._dd_var is not None:
-            qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), 0.05 * self._qd_param)
+            qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), self._qd_param)
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
         Qc, Mi = np.diag(qd**2), self.kf.vehicle.M_inv
