@@ -71,6 +71,18 @@ def test_robust_law_sees_no_moment_on_a_vehicle_carried_by_the_water():
     assert wave_part.tau_e_hat[2] == pytest.approx(-(p.Z_wdot - p.X_udot) * u_p * w_p, rel=1e-12)
 
 
+def test_robust_law_bounds_the_velocity_between_holding_station_and_the_water():
+    """An estimate faster than the water counts as moving with it; one against the water as holding station."""
+    u_p, w_p = 0.5, -0.3
+    law = lambda: ff_law(1, WK_FF_LIM_X=2.0, WK_FF_LIM_Z=2.0, WK_FF_LIM_P=2.0)  # noqa: E731
+    flow = uniform_flow(u_p, w_p)
+    too_fast = law().update(flow, np.array([0.0, 5.0, 0.0, 2.0, -1.0, 0.0])).tau_e_hat
+    with_water = law().update(flow, np.array([0.0, 5.0, 0.0, u_p, w_p, 0.0])).tau_e_hat
+    np.testing.assert_allclose(too_fast, with_water, rtol=1e-12, atol=1e-12)
+    against = law().update(flow, np.array([0.0, 5.0, 0.0, -1.0, 1.0, 0.0])).tau_e_hat
+    np.testing.assert_allclose(against, ff_law(0).update(flow, np.zeros(6)).tau_e_hat, rtol=1e-12)
+
+
 def test_robust_law_limits_its_authority_per_axis():
     """A flow whose load exceeds WK_FF_LIM_*·τ_max is clipped there; the prediction itself is not."""
     law = ff_law(1, WK_FF_LIM_X=0.5, WK_FF_LIM_Z=0.25, WK_FF_LIM_P=0.1)
