@@ -4,7 +4,7 @@ Issue #11: the paper's law predicts the load on a vehicle *holding station*;
 when a wave group carries the vehicle with the water it predicts a Munk
 moment the vehicle does not feel, larger than the pitch authority, and tips
 it. The robust law must not, in a focused 4.5 m crest over the station
-(configs/sea/W2F.yaml, constrained NewWave), and must do no worse than C-PD.
+(configs/sea/design/W2F.yaml, constrained NewWave), and must do no worse than C-PD.
 """
 from __future__ import annotations
 
@@ -116,9 +116,9 @@ def test_monitor_fades_an_axis_whose_prediction_the_motion_contradicts():
 @pytest.fixture(scope="module")
 def focused_runs():
     """W2 with a 4.5 m crest over the station at t = 60 s: C-PD, paper FF, robust FF (90 s each)."""
-    sea = Sea.load("W2F")
+    sea = Sea.load("design/W2F")
     assert float(sea.elevation(0.0, 60.0)) == pytest.approx(4.5, abs=1e-9)
-    spec = dict(case="W2F", duration=90.0)
+    spec = dict(case="design/W2F", duration=90.0)
     return {"cpd": run_mission(RunSpec(controller="cpd", **spec)).results,
             "paper": run_mission(RunSpec(controller="cpd_ff", overrides={"WK_FF_MODE": 0}, **spec)).results,
             "robust": run_mission(RunSpec(controller="cpd_ff", **spec)).results}
