@@ -30,7 +30,7 @@ from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
-from .params import ParameterTable
+from .params import RCIN_PASSTHROUGH, ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
@@ -128,6 +128,7 @@ class Firmware:
         self.sensors_healthy = False
         self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
         self._motor_test: MotorTest | None = None
+        self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self._pending: Prediction | None = None
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
@@ -255,6 +256,28 @@ class Firmware:
         """Normalised stick demands in [−1, 1] (clipped); timestamped with the vehicle clock."""
         clip = lambda v: 0.0 if not math.isfinite(v) else min(1.0, max(-1.0, v))  # noqa: E731
         self.pilot = PilotInput(clip(surge), clip(up), clip(pitch), self._now)
+
+    def rc_override_aux(self, channel: int, pwm: int | None) -> None:
+        """RC input ``channel`` (9–16) overridden to ``pwm`` µs, or released (None); stamped with the vehicle clock."""
+        if pwm is None:
+            self.rc_aux.pop(channel, None)
+        else:
+            self.rc_aux[channel] = (int(pwm), self._now)
+
+    def _passthrough(self, t: float) -> dict[int, int]:
+        """Outputs whose SERVOn_FUNCTION is RCIN9–16 (ArduSub's pass-through): output index → µs.
+
+        A released or expired (``RC_OVERRIDE_TIME``) input gives neutral.
+        """
+        out: dict[int, int] = {}
+        expiry = self.params["RC_OVERRIDE_TIME"]
+        for i in range(self.mixer.layout.n):
+            function = int(self.params[f"SERVO{i + 1}_FUNCTION"])
+            if function in RCIN_PASSTHROUGH:
+                pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
+                fresh = expiry < 0 or t - since <= expiry
+                out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US
+        return out
 
     def motor_test(self, motor: int, pwm: int, timeout_s: float) -> MAV_RESULT:
         """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it)."""
@@ -388,6 +411,16 @@ class Firmware:
             return self.mixer.output(pwm)
         self._motor_test = None
         tau = np.where(self.flight_mode.holds, control.tau, self._pilot_wrench(t))
+        passthrough = self._passthrough(t)
+        if passthrough:
+            # Outputs set to RCIN9-16 take the companion's PWM; the motor model follows what is sent
+            f_hat = self.mixer.f_hat
+            mix = self.mixer.mix(np.where(np.isfinite(tau), tau, 0.0))
+            self.mixer.f_hat = f_hat
+            pwm = mix.pwm.copy()
+            for i, v in passthrough.items():
+                pwm[i] = v
+            return self.mixer.output(pwm)
         if np.all(np.isfinite(tau)):
             return self.mixer.mix(tau)
         # never send a non-finite command to the thrusters
