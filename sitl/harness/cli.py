@@ -376,6 +376,10 @@ def _add_process_parsers(sub) -> None:
     p.add_argument("--plant-port", type=int, default=9002)
     p.add_argument("--gcs-port", type=int, default=14550)
     p.add_argument("--zenoh-port", type=int, default=7447)
+    p.add_argument("--companion", nargs="?", const="rc", choices=("rc", "servo"), default=None,
+                   help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
+                        "ArduSub (docs/companion.md)")
+    p.add_argument("--companion-port", type=int, default=14770)
     p.add_argument("--out", default="runs/sim", help="run folder")
     p.set_defaults(func=cmd_sim)
 
@@ -409,7 +413,11 @@ def cmd_sim(args) -> int:
     opt = SimOptions(run_spec(args), speedup=args.speedup, out=args.out, plant_port=args.plant_port,
                      gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
     try:
-        r = launch(opt, progress=None)
+        if args.companion:
+            from .companion_launch import launch_companion
+            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+        else:
+            r = launch(opt, progress=None)
     except LaunchError as exc:
         print(f"wavekeep sim: {exc}", file=sys.stderr)
         return exc.status
@@ -420,7 +428,7 @@ def cmd_sim(args) -> int:
     return 0
 
 
-DELEGATED = {"plant": "sitl.physics_server", "firmware": "firmware_py.app"}
+DELEGATED = {"plant": "sitl.physics_server", "firmware": "firmware_py.app", "companion": "firmware_py.companion.app"}
 """Subcommands that are programs of their own (separate processes in ``wavekeep sim``)."""
 
 
