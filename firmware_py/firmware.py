@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_nodes
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
@@ -130,6 +130,7 @@ class Firmware:
         self._motor_test: MotorTest | None = None
         self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self._pending: Prediction | None = None
+        self._in_flight: deque[Prediction] = deque()   # commands sent, not yet acting (WK_OUT_DELAY)
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
         self._ff_was_active = False
@@ -364,12 +365,13 @@ class Firmware:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
             self._output(self.mixer.neutral(), None, t)
             return
+        delay = int(self.params["WK_OUT_DELAY"])
         flow, seq = self.predicted_flow(t)
-        ff_active, flow, ff = self._feedforward(flow)
+        ff_active, ff_flow, ff = self._feedforward(flow if not delay else self.predicted_flow(t + delay * self.h)[0])
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
-        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h)
+        control = self.controller.update(self._ahead(t), self.setpoint, ff.tau_ff, self.h)
         mix = self._mix(control, t)
-        self._output(mix, flow, t)
+        self._output(mix, flow if ff_active else None, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight)
         if self.on_tick is not None:
@@ -428,7 +430,24 @@ class Firmware:
         self.controller.reset()
         return self.mixer.neutral()
 
+    def _ahead(self, t: float) -> np.ndarray:
+        """The state the command will meet: the estimate propagated over the commands still in flight
+        (``WK_OUT_DELAY`` ticks: a companion's commands act one tick after its telemetry), else the estimate."""
+        x = self.ekf.x
+        for i, p in enumerate(self._in_flight):
+            flow = self.predicted_flow(t + i * self.h)[0] if p.flow is not None else None
+            x = rk4_step(self.vehicle, x, self.h, p.tau_stages, flow)
+        return x
+
     def _output(self, mix: MixerOutput, flow: BodyFlow | None, t: float) -> None:
-        """Write the PWM, and hand the next tick's prediction what this one commanded."""
+        """Write the PWM, and hand the next tick's prediction what this one commanded (or, with
+        ``WK_OUT_DELAY`` d, what tick k − d commanded: the command acting over the coming period)."""
         self.hal.write_pwm(mix.pwm)
-        self._pending = Prediction(mix.tau_stages, flow, t)
+        delay = int(self.params["WK_OUT_DELAY"])
+        if not delay:
+            self._in_flight.clear()
+            self._pending = Prediction(mix.tau_stages, flow, t)
+            return
+        self._in_flight.append(Prediction(mix.tau_stages, flow, t))
+        acting = self._in_flight.popleft() if len(self._in_flight) > delay else None
+        self._pending = Prediction(np.zeros((3, 3)) if acting is None else acting.tau_stages, flow, t)

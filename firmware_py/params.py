@@ -179,6 +179,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_CONV", 1e-4, 10.0, "m", "converged when position 1-sigma is below this"),
     # Pilot, modes and failsafes (ArduSub names where ArduSub has the parameter)
     ParamDef("WK_PILOT_TMO", 0.1, 10.0, "s", "pilot input older than this is treated as neutral"),
+    ParamDef("WK_OUT_DELAY", 0, 5, "", "ticks between a command and its effect (companion: 1); the EKF and "
+             "the controller account for the commands in flight", ptype="INT8"),
     ParamDef("WK_CLIMB_RATE", 0.01, 2.0, "m/s", "ALT_HOLD depth-target rate at full throttle stick"),
     ParamDef("WK_SURF_RATE", 0.01, 2.0, "m/s", "SURFACE mode ascent rate of the depth target"),
     ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),

@@ -150,7 +150,7 @@ def _build(args, link, stop):
     from ..params import load_params
     from .commander import Commander
     from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL
-    overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0,
+    overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
                  "FS_EKF_ACTION": 0.0}
     if args.method == "rc":
         overrides["WK_MOT_COMP"] = 0.0           # ArduSub's mixer owns the motors
