@@ -367,7 +367,8 @@ class Firmware:
             return
         delay = int(self.params["WK_OUT_DELAY"])
         flow, seq = self.predicted_flow(t)
-        ff_active, ff_flow, ff = self._feedforward(flow if not delay else self.predicted_flow(t + delay * self.h)[0])
+        ahead_flow = flow if not delay else self.predicted_flow(t + delay * self.h)[0]
+        ff_active, _, ff = self._feedforward(ahead_flow)
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         control = self.controller.update(self._ahead(t), self.setpoint, ff.tau_ff, self.h)
         mix = self._mix(control, t)

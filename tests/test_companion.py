@@ -20,13 +20,13 @@ import numpy as np
 import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink import mavutil  # noqa: E402
+from pymavlink import mavutil
 
-from sitl.faultrelay import FaultRelay, Faults  # noqa: E402
-from sitl.harness.companion_launch import launch_companion, stand_in_args  # noqa: E402
-from sitl.harness.launcher import SimOptions  # noqa: E402
-from sitl.harness.ports import free_port  # noqa: E402
-from sitl.harness.spec import RunSpec  # noqa: E402
+from sitl.faultrelay import FaultRelay, Faults
+from sitl.harness.companion_launch import launch_companion, stand_in_args
+from sitl.harness.launcher import SimOptions
+from sitl.harness.ports import free_port
+from sitl.harness.spec import RunSpec
 
 pytestmark = pytest.mark.processes
 CLI = [sys.executable, "-m", "sitl.harness.cli"]

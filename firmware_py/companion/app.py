@@ -88,7 +88,7 @@ def _stick_model(args, link, params) -> tuple[str, tuple[float, float, float]]:
     if args.stick_model in ("auto", "wavekeep"):
         vals = [link.read_param(n, 2.0) for n in names]
         if all(v is not None for v in vals):
-            return "wavekeep", tuple(vals)     # type: ignore[return-value]
+            return "wavekeep", tuple(vals)
         if args.stick_model == "wavekeep":
             raise RuntimeError("--stick-model wavekeep: the autopilot has no WK_TAU_MAX_* parameters")
     return "ardusub", params.axes("WK_TAU_MAX")

@@ -35,8 +35,8 @@ from ..modes import MAV_SEVERITY
 from ..telemetry_snapshot import TelemetrySnapshot
 from .battery import BatterySim
 from .commands import Dispatcher
-from .lockstep import CompanionLockstep
 from .ftp import FtpResponder
+from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
