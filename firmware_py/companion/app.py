@@ -153,7 +153,7 @@ def _build(args, link, stop):
     overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
                  "FS_EKF_ACTION": 0.0}
     if args.method == "rc":
-        overrides["WK_MOT_COMP"] = 0.0           # ArduSub's mixer owns the motors
+        overrides.update(WK_MOT_COMP=0.0, WK_MOT_TC=0.001)   # the autopilot owns the motors (and their lag)
     params = load_params(args.params, {**overrides, **dict(args.set)})
     vcfg, mcfg = load_vehicle_config(args.vehicle), load_mission_config(args.mission)
     layout, curve = ThrusterLayout.from_config(vcfg["thrusters"]), T200Curve.from_config(vcfg["thrusters"])
