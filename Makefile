@@ -18,8 +18,10 @@ $(STAMP): pyproject.toml
 	-$(BIN)/pip install --quiet "mavsdk<4" dronekit2
 	touch $(STAMP)
 
+# make run ARGS="--case W1 --duration 60": options are passed through (later ones win); --force reuses the folder
+ARGS ?=
 run: $(STAMP)
-	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --out runs/sim-W3-cpd_ff
+	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --out runs/sim-W3-cpd_ff --force $(ARGS)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -19,10 +19,11 @@ sensor out for ever once the model has been wrong for a while.
 from __future__ import annotations
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
+import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse (same bits)
 
-from bridge.models.vehicle import BodyFlow, VehicleParams, rk4_step, state_rates
+from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step
 
+from .filterpy_ekf import ExtendedKalmanFilter
 from .params import ParameterTable
 from .sensors import SensorFrame
 
@@ -64,6 +65,9 @@ class PlanarEKF:
         self.resets = dict.fromkeys(CHANNELS, 0)
         self.last_nis = np.full(4, np.nan)   # normalised innovation squared per channel, last tick
         self._last_accept_t = np.full(4, -np.inf)
+        self._q_key: tuple | None = None
+        self._q = np.zeros((6, 6))
+        self._H: dict[tuple, np.ndarray] = {}   # measurement matrices by accepted-channel pattern
 
     # ------------------------------------------------------------------ state
     @property
@@ -97,22 +101,21 @@ class PlanarEKF:
         self.initialised = True
 
     # ------------------------------------------------------------------ predict
-    def _jacobian(self, x: np.ndarray, tau: np.ndarray, flow: tuple | None) -> np.ndarray:
-        f0 = state_rates(self.kf.vehicle, x, tau, flow)
-        A = np.empty((6, 6))
-        for j in range(6):
-            d = 1e-6 * max(1.0, abs(x[j]))
-            xp = x.copy()
-            xp[j] += d
-            A[:, j] = (state_rates(self.kf.vehicle, xp, tau, flow) - f0) / d
+    def _jacobian(self, x: np.ndarray, tau: np.ndarray, flow: BodyFlow | None) -> np.ndarray:
+        """F ≈ I + A h + (A h)²/2 with A the model's Jacobian at x under τ in the flow's first instant."""
+        A = rates_jacobian(self.kf.vehicle, x, tau, flow, 0)
         Ah = A * self.h
         return np.eye(6) + Ah + 0.5 * Ah @ Ah
 
     def _process_noise(self) -> np.ndarray:
+        """Q = diag(q² h) from the WK_EKF_Q_* parameters; rebuilt only when one of them changes."""
         p, h = self.params, self.h
-        q = np.array([p["WK_EKF_Q_POS"], p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"],
-                      p["WK_EKF_Q_VEL"], p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"]])
-        return np.diag(q**2 * h)
+        key = (p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"], p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"])
+        if key != self._q_key:
+            q = np.array([p["WK_EKF_Q_POS"], p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"],
+                          p["WK_EKF_Q_VEL"], p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"]])
+            self._q, self._q_key = np.diag(q**2 * h), key
+        return self._q
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -121,7 +124,7 @@ class PlanarEKF:
             return
         self.kf.tau_stages = np.asarray(tau_stages, dtype=float)
         self.kf.flow = flow
-        self.kf.F = self._jacobian(self.x.copy(), self.kf.tau_stages[0], None if flow is None else flow.stage(0))
+        self.kf.F = self._jacobian(self.x.copy(), self.kf.tau_stages[0], flow)
         self.kf.Q = self._process_noise()
         self.kf.predict()
 
@@ -164,9 +167,28 @@ class PlanarEKF:
             self.kf.P[j, j] = r[k]
             self.resets[CHANNELS[k]] += 1
         if accept.any():
-            rows = idx[accept]
-            H = np.zeros((rows.size, 6))
-            H[np.arange(rows.size), rows] = 1.0
-            self.kf.update(z[accept].reshape(-1, 1), HJacobian=lambda _x, H=H: H,
-                           Hx=lambda xx, H=H: H @ xx, R=np.diag(r[accept]))
+            key = tuple(accept.tolist())
+            H = self._H.get(key)
+            if H is None:
+                rows = idx[accept]
+                H = np.zeros((rows.size, 6))
+                H[np.arange(rows.size), rows] = 1.0
+                self._H[key] = H
+            self._fuse(z[accept].reshape(-1, 1), H, np.diag(r[accept]))
         return accept
+
+    def _fuse(self, z: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:
+        """filterpy's ``ExtendedKalmanFilter.update(z, HJacobian=H, Hx=H x, R)``, term by term and in its
+        arithmetic (Joseph form, scipy's inverse), without its per-call deep copies and closures."""
+        kf = self.kf
+        PHT = np.dot(kf.P, H.T)
+        kf.S = np.dot(H, PHT) + R
+        kf.SI = linalg.inv(kf.S)
+        kf.K = PHT.dot(kf.SI)
+        kf.y = np.subtract(z, H @ kf.x)
+        kf.x = kf.x + np.dot(kf.K, kf.y)
+        I_KH = kf._I - np.dot(kf.K, H)
+        kf.P = np.dot(I_KH, kf.P).dot(I_KH.T) + np.dot(kf.K, R).dot(kf.K.T)
+        kf._log_likelihood = kf._likelihood = kf._mahalanobis = None
+        kf.z, kf.R = z, R
+        kf.x_post, kf.P_post = kf.x.copy(), kf.P.copy()

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bridge.models.vehicle import BodyFlow, VehicleParams, hydrodynamic_load, restoring_forces
+from bridge.models.vehicle import BodyFlow, VehicleParams, hydrodynamic_load_at, restoring_forces
 
 from .params import ParameterTable
 
@@ -95,13 +95,13 @@ class WaveFeedForward:
         self.weight = np.ones(3)
 
     # ------------------------------------------------------------------ models
-    def _load(self, nu: np.ndarray, stage: tuple, mode: int) -> np.ndarray:
-        """The predicted load (N, N, N m) at body velocity ν in the flow ``stage``, per law ``mode``."""
+    def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
+        """The predicted load (N, N, N m) at body velocity ν in ``flow`` at its instant i, per law ``mode``."""
         u, w, q = (float(v) for v in nu)
         p = self.vehicle
-        with_flow = np.array(hydrodynamic_load(p, u, w, q, stage))
+        with_flow = hydrodynamic_load_at(p, u, w, q, flow, i)
         if mode == 2:
-            return with_flow - np.array(hydrodynamic_load(p, u, w, q, None))
+            return with_flow - hydrodynamic_load_at(p, u, w, q, None)
         # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
         damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
                             (p.M_q + p.M_qq * abs(q)) * q])
@@ -142,11 +142,11 @@ class WaveFeedForward:
         mode = int(self.params["WK_FF_MODE"])
         if mode == 0:
             # The paper's law: the vehicle holding station (ν = 0) at the end of the period
-            tau_e_hat = np.array(hydrodynamic_load(self.vehicle, 0.0, 0.0, 0.0, flow.stage(2)))
+            tau_e_hat = hydrodynamic_load_at(self.vehicle, 0.0, 0.0, 0.0, flow, 2)
         else:
             nu_hat = np.asarray(x_hat[3:], dtype=float)
             self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
-            tau_e_hat = self._load(self._nu_f, flow.stage(2), mode)
+            tau_e_hat = self._load(self._nu_f, flow, 2, mode)
             if mode == 1:
                 self._monitor(flow, x_hat, tau_thr)
         if not np.all(np.isfinite(tau_e_hat)):
@@ -170,7 +170,7 @@ class WaveFeedForward:
         if observed is None or not np.all(np.isfinite(observed)):
             return
         # The prediction at the start of this period's end (stage 0 = now) and the estimate's velocity
-        predicted = self._load(np.asarray(x_hat[3:], dtype=float), flow.stage(0), 1)
+        predicted = self._load(np.asarray(x_hat[3:], dtype=float), flow, 0, 1)
         tc = p["WK_FF_MON_TC"]
         self._obs_f = _lowpass(self._obs_f, observed, self.h, tc)
         self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)

@@ -24,10 +24,10 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
-    hydrodynamic_load,
+    hydrodynamic_load_at,
     motor_lag_stages,
     rk4_step,
-    state_rates,
+    state_rates_at,
     strip_nodes,
     wave_load,
 )
@@ -125,10 +125,9 @@ class Plant:
         f = motor_lag_stages(f_cmd, s.thrust, self.t_m, [dt])[0]
         self.state = PlantState(t, x[:3], x[3:], f)
         self.tau = self.B @ f
-        end = flow.stage(2)
         u, w, q = x[3:].tolist()
-        self.tau_E = np.array(hydrodynamic_load(p, u, w, q, end)) - np.array(hydrodynamic_load(p, u, w, q, None))
-        self.nu_dot = state_rates(p, x, self.tau, end)[3:]
+        self.tau_E = hydrodynamic_load_at(p, u, w, q, flow, 2) - hydrodynamic_load_at(p, u, w, q, None)
+        self.nu_dot = state_rates_at(p, x, self.tau, flow, 2)[3:]
         return self.state
 
     def power_per_dof(self) -> np.ndarray:

@@ -17,8 +17,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.optimize import brentq
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
 from bridge.csvio import read_numeric_csv
@@ -63,6 +61,8 @@ def _jonswap_norm(gamma: float) -> float:
     For γ = 1 (Pierson–Moskowitz) the integral is 1/5 analytically; the
     DNV closed-form factor (1 − 0.287 ln γ) approximates 0.2/∫ to about 1 %.
     """
+    from scipy.integrate import quad  # imported on first use: ~0.3 s
+
     f = lambda x: float(_jonswap_shape(np.array([x]), gamma)[0])  # noqa: E731
     a, _ = quad(f, 0.2, 1.0, limit=200, points=[1.0])
     b, _ = quad(f, 1.0, 3.0, limit=200)
@@ -144,7 +144,7 @@ def discretise_spectrum(spectrum: Callable[[np.ndarray], np.ndarray], omega_lo: 
 # ---------------------------------------------------------------------------- config
 
 SEA_SCHEMA = {
-    "name": Field("str"),
+    "name": Field("str", required=False, doc="default: the file's stem"),
     "spectrum": {
         "type": Field("choice", choices=("jonswap", "measured")),
         "hs": Field("float", lo=0.0, hi=30.0, lo_open=True, required=False, doc="m"),
@@ -152,11 +152,11 @@ SEA_SCHEMA = {
         "gamma": Field("float", lo=1.0, hi=10.0, default=3.3),
         "csv": Field("str", required=False, doc="path to frequency (Hz), density (m^2/Hz) CSV"),
     },
-    "water_depth": Field("float", lo=1.0, hi=1.0e4),
-    "components": Field("int", lo=8, hi=4096),
-    "omega_band": Field("floats", lo=0.05, hi=20.0, length=2),
+    "water_depth": Field("float", lo=1.0, hi=1.0e4, default=54.0, doc="m"),
+    "components": Field("int", lo=8, hi=4096, default=200),
+    "omega_band": Field("floats", lo=0.05, hi=20.0, length=2, default=[0.5, 5.0], doc="× the peak frequency"),
     "second_order": Field("bool", default=True),
-    "seed": Field("int", lo=0, hi=2**63 - 1),
+    "seed": Field("int", lo=0, hi=2**63 - 1, default=1),
     "buoy": {
         "x": Field("float", lo=-1.0e4, hi=1.0e4, default=-50.0),
         "sample_rate": Field("float", lo=0.1, hi=100.0, default=2.0),
@@ -191,11 +191,16 @@ def load_sea_config(name_or_path: str | Path) -> dict:
         if not csv_path.exists():
             raise ConfigError(path, "spectrum.csv", f"no such file: {csv_path}")
         sp["csv"] = str(csv_path)
+        try:   # a bad spectrum file is a config error (one line, exit 2), found before anything runs
+            MeasuredSpectrum.from_csv(csv_path)
+        except ValueError as exc:
+            raise ConfigError(path, "spectrum.csv", str(exc)) from None
     lo, hi = cfg["omega_band"]
     if not lo < 1.0 < hi:
         raise ConfigError(path, "omega_band", f"got {cfg['omega_band']}; allowed: [lo, hi] with lo < 1 < hi")
     _check_focus(path, cfg)
     cfg["source"] = str(path)
+    cfg["name"] = cfg["name"] or path.stem
     return cfg
 
 
@@ -266,6 +271,8 @@ def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0:
     ``crest``. Raises ValueError if the components cannot reach it (at most
     Σ A_i when all are in phase).
     """
+    from scipy.optimize import brentq  # imported on first use
+
     if not crest > 0:
         raise ValueError(f"the focused crest must be positive, got {crest}")
     amp = components.amplitude

@@ -108,5 +108,5 @@ def test_console_script_writes_the_sea_csv(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     lines = out.read_text().splitlines()
-    assert lines[1] == "t,eta,u,w"
+    assert lines[1] == "t_s,eta_m,u_m_per_s,w_m_per_s_down"
     assert len(lines) == 2 + 60 * 20 + 1

@@ -445,3 +445,16 @@ def test_main_serves_until_sigterm():
             proc.communicate()
     assert proc.returncode == 0, err
     assert "replies=2" in out and "steps=1" in out
+
+
+def test_state_line_round_trips_floats_exactly():
+    """encode_state → decode_state gives back every float bit for bit (orjson or json alike)."""
+    from bridge.json_sitl import encode_state, state_message
+
+    rng = np.random.default_rng(5)
+    for _ in range(500):
+        v = rng.normal(0, 10.0 ** rng.integers(-12, 6), 17)
+        line = encode_state(state_message(float(abs(v[0])), v[1:4], v[4:7], v[7:10], v[9:17], 9.81, 3))
+        r = decode_state(line)
+        assert r.timestamp == float(abs(v[0])) and np.array_equal(r.eta, v[1:4]) and np.array_equal(r.nu, v[4:7])
+        assert np.array_equal(r.thrust, v[9:17]) and r.frame_count == 3

@@ -107,3 +107,19 @@ def test_write_run_plots_a_real_short_mission(tmp_path):
     result = run_mission(RunSpec("W1", "cpd_ff", 15.0, duration=2.0))
     out = write_run(result, tmp_path / "run")
     assert_png(out / "time_history.png")
+
+
+def test_fig7_bars_equal_the_power_in_the_table(nine_runs):
+    """Issue #17: pitch power was multiplied by 57.3 (the rad→deg scale of the error metrics)."""
+    from sitl.harness.plots import power_figure
+
+    fig = power_figure(nine_runs)
+    axes = fig.axes[:4]
+    for ax, dof in zip(axes, ("surge", "heave", "pitch", "total"), strict=True):
+        for container, label in zip(ax.containers, LABELS, strict=True):
+            heights = [bar.get_height() for bar in container]
+            for c, h in zip(CASES, heights, strict=True):
+                run = next(r for r in nine_runs if r.results["case"] == c and r.results["label"] == label)
+                p = run.results["mean_power_w"]
+                want = sum(p.values()) if dof == "total" else p[dof]
+                assert h == pytest.approx(want), (dof, c, label)

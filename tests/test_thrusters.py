@@ -114,3 +114,24 @@ def test_power_polynomial_matches_the_paper():
     assert power_per_dof(10.0) == pytest.approx(1.1 + 2.078 + 2.97)
     assert power_per_dof(-10.0) == pytest.approx(power_per_dof(10.0))
     assert power_per_dof(0.0) == 0.0
+
+
+def test_pchip_is_scipys_to_the_last_bit():
+    """bridge.models.pchip reproduces scipy.interpolate.PchipInterpolator exactly (coefficients and values)."""
+    from scipy.interpolate import PchipInterpolator
+
+    from bridge.models.pchip import Pchip
+
+    rng = np.random.default_rng(13)
+    curve = T200Curve.from_config(load_vehicle_config("bluerov2_heavy")["thrusters"])
+    cases = [(curve.pwm_samples, curve.thrust_samples)]
+    for _ in range(100):
+        n = int(rng.integers(3, 20))
+        x = np.cumsum(rng.uniform(0.1, 3.0, n))
+        y = rng.normal(size=n) if rng.random() < 0.5 else np.cumsum(np.abs(rng.normal(size=n)))
+        cases.append((x, y))
+    for x, y in cases:
+        ref, ours = PchipInterpolator(x, y), Pchip(x, y)
+        q = np.concatenate([x, rng.uniform(x[0] - 1.0, x[-1] + 1.0, 2000)])
+        assert np.array_equal(ref.c, ours.c)
+        assert np.array_equal(ref(q), ours(q))

@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import PchipInterpolator
+
+from .pchip import Pchip
 
 __all__ = ["KGF", "NEUTRAL_PWM_US", "WRENCH_AXES", "T200Curve", "ThrusterLayout", "power_per_dof"]
 
@@ -48,7 +49,7 @@ class T200Curve:
         self.pwm_samples, self.thrust_samples = pwm, f
         self.pwm_min, self.pwm_max, self.pwm_neutral = pwm_min, pwm_max, pwm_neutral
         self.deadband = (pwm[zero[0]], pwm[zero[1]])
-        self._fwd = PchipInterpolator(pwm, f)
+        self._fwd = Pchip(pwm, f)   # SciPy's PchipInterpolator to the last bit, without importing SciPy
         self.thrust_min, self.thrust_max = float(self._fwd(pwm_min)), float(self._fwd(pwm_max))
         # Exact inverse of the forward curve on each strictly monotone branch (beyond the
         # dead band), tabulated every 0.05 µs: thrust(pwm(f)) = f to ~1e-6 N.

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import kernels
 from .waves import G, WaveComponents, particle_kinematics_grid
 
 __all__ = [
@@ -32,8 +33,10 @@ __all__ = [
     "coriolis_matrix",
     "damping_matrix",
     "hydrodynamic_load",
+    "hydrodynamic_load_at",
     "motor_lag_stages",
     "ned_to_body",
+    "rates_jacobian",
     "restoring_forces",
     "rk4_step",
     "state_rates",
@@ -71,6 +74,7 @@ class VehicleParams:
     M_inv: np.ndarray = field(init=False, repr=False)
     _M_RB_rows: tuple = field(init=False, repr=False)    # M_RB and M⁻¹ as nested float tuples: the scalar
     _M_inv_rows: tuple = field(init=False, repr=False)   # hot path of state_rates reads them without numpy
+    kernel_params: np.ndarray = field(init=False, repr=False)   # the compiled kernels' vector (bridge.models.kernels)
 
     def __post_init__(self) -> None:
         m = self.mass
@@ -88,6 +92,12 @@ class VehicleParams:
         # Float copies for the scalar hot path (state_rates)
         object.__setattr__(self, "_M_RB_rows", tuple(map(tuple, M_RB.tolist())))
         object.__setattr__(self, "_M_inv_rows", tuple(map(tuple, np.linalg.inv(M).tolist())))
+        r_G, r_B = self.r_G, self.r_B
+        kp = [self.W, self.B, self.height, r_G[0], r_G[2], r_B[0], r_B[2], self.X_udot, self.Z_wdot, self.X_qdot,
+              self.X_u, self.Z_w, self.M_q, self.X_uu, self.Z_ww, self.M_qq, M_RB[0, 0], M_RB[0, 2], M_RB[1, 1],
+              M_RB[1, 2], *np.linalg.inv(M).ravel()]
+        object.__setattr__(self, "kernel_params", np.array(kp, dtype=float))
+        kernels.warm_up()   # load the compiled kernels now, not on a real-time loop's first ticks
 
     @property
     def mass(self) -> float:
@@ -193,15 +203,20 @@ class BodyFlow:
     _stages: tuple = field(init=False, repr=False)      # per instant, as plain floats (see stage())
 
     def __post_init__(self) -> None:
-        # The scalar hot path (state_rates) reads each instant as float lists: convert once
-        xs, wts = self.xs.tolist(), self.wts.tolist()
-        stages = tuple((xs, wts, u, w, ax, az) for u, w, ax, az in
-                       zip(self.u.tolist(), self.w.tolist(), self.ax.tolist(), self.az.tolist(), strict=False))
-        object.__setattr__(self, "_stages", stages)
+        object.__setattr__(self, "_stages", None)
 
     def stage(self, i: int) -> tuple:
-        """The flow at instant i as plain float lists (the scalar hot path's input)."""
+        """The flow at instant i as plain float lists (the scalar hot path's input), converted on first use."""
+        if self._stages is None:
+            xs, wts = self.xs.tolist(), self.wts.tolist()
+            stages = tuple((xs, wts, u, w, ax, az) for u, w, ax, az in
+                           zip(self.u.tolist(), self.w.tolist(), self.ax.tolist(), self.az.tolist(), strict=False))
+            object.__setattr__(self, "_stages", stages)
         return self._stages[i]
+
+    def arrays(self, i: int) -> tuple:
+        """(xs, wts, u, w, ax, az) at instant i as float arrays (the compiled kernels' input)."""
+        return self.xs, self.wts, self.u[i], self.w[i], self.ax[i], self.az[i]
 
 
 def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
@@ -212,8 +227,14 @@ def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarra
     """
     xs, wts = strips
     th = float(eta[2])
-    c, s = math.cos(th), math.sin(th)
     tt = np.atleast_1d(np.asarray(t, dtype=float))
+    if kernels.ENABLED:
+        x_e2d, _, inv, inv4 = waves._depth_constants
+        coef, rate = waves._series_constants
+        out = kernels.body_flow_arrays(waves.k, waves.omega, waves.phase, coef, rate, x_e2d, inv, inv4,
+                                       waves.water_depth, float(eta[0]), float(eta[1]), th, xs, tt)
+        return BodyFlow(xs, wts, out[0], out[1], out[2], out[3])
+    c, s = math.cos(th), math.sin(th)
     # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
     depth = np.clip(eta[1] - xs * s, 0.0, waves.water_depth)   # and nothing below the seabed
     u, w, ud, wd = particle_kinematics_grid(waves, eta[0] + xs * c, depth, tt)   # (T, S)
@@ -260,6 +281,56 @@ def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tupl
     return X, Z, Mh
 
 
+def hydrodynamic_load_at(p: VehicleParams, u: float, w: float, q: float, flow: BodyFlow | None = None,
+                         i: int = 0) -> np.ndarray:
+    """:func:`hydrodynamic_load` (N, N, N m) in ``flow`` at its instant i (None: still water), as an array (3,).
+
+    The compiled kernel when :data:`~bridge.models.kernels.ENABLED`, else the reference.
+    """
+    if not kernels.ENABLED:
+        return np.array(hydrodynamic_load(p, u, w, q, None if flow is None else flow.stage(i)))
+    return np.array(kernels.hydro_load(p.kernel_params, float(u), float(w), float(q), *_flow_args(flow, i)))
+
+
+_NO_FLOW = (np.zeros(1), np.ones(1), np.zeros((3, 1)))
+"""Placeholder flow arrays for the kernels in still water: strips, weights, one zero per stage; never read."""
+
+
+def _flow_args(flow: BodyFlow | None, i: int | None) -> tuple:
+    """The kernels' (has_flow, xs, wts, u, w, ax, az) for ``flow`` at instant i (None: all instants)."""
+    if flow is None:
+        xs, wts, z = _NO_FLOW
+        zi = z if i is None else z[0]
+        return False, xs, wts, zi, zi, zi, zi
+    if i is None:
+        return True, flow.xs, flow.wts, flow.u, flow.w, flow.ax, flow.az
+    return (True, *flow.arrays(i))
+
+
+def state_rates_at(p: VehicleParams, x: np.ndarray, tau, flow: BodyFlow | None = None, i: int = 0) -> np.ndarray:
+    """:func:`state_rates` in ``flow`` at its instant i: the compiled kernel, or the reference."""
+    if not kernels.ENABLED:
+        return state_rates(p, x, tau, None if flow is None else flow.stage(i))
+    return kernels.state_rates_arr(p.kernel_params, np.asarray(x, dtype=float), np.asarray(tau, dtype=float),
+                                   *_flow_args(flow, i))
+
+
+def rates_jacobian(p: VehicleParams, x: np.ndarray, tau, flow: BodyFlow | None = None, i: int = 0) -> np.ndarray:
+    """A = ∂ẋ/∂x (6, 6) of :func:`state_rates` by forward differences, step 1e-6·max(1, |x_j|)."""
+    x = np.asarray(x, dtype=float)
+    if kernels.ENABLED:
+        return kernels.jacobian_arr(p.kernel_params, x, np.asarray(tau, dtype=float), *_flow_args(flow, i))
+    stage = None if flow is None else flow.stage(i)
+    f0 = state_rates(p, x, tau, stage)
+    A = np.empty((6, 6))
+    for j in range(6):
+        d = 1e-6 * max(1.0, abs(x[j]))
+        xp = x.copy()
+        xp[j] += d
+        A[:, j] = (state_rates(p, xp, tau, stage) - f0) / d
+    return A
+
+
 def state_rates(p: VehicleParams, x, tau, flow: tuple | None = None) -> np.ndarray:
     """ẋ for x = [η, ν] = [x, z, θ, u, w, q] under the thruster load τ in the flow — paper Eq. 2.
 
@@ -294,6 +365,9 @@ def rk4_step(p: VehicleParams, x: np.ndarray, h: float, tau_stages, flow: BodyFl
     in one batch (waves) cost nothing extra per stage. Used by the plant (true
     parameters and sea) and the estimator's prediction (nominal parameters, forecast).
     """
+    if kernels.ENABLED:
+        return kernels.rk4_arr(p.kernel_params, np.asarray(x, dtype=float), float(h),
+                               np.asarray(tau_stages, dtype=float), *_flow_args(flow, None))
     tau0, tau_half, tau1 = tau_stages
     f0, fh, f1 = (None, None, None) if flow is None else (flow.stage(0), flow.stage(1), flow.stage(2))
     k1 = state_rates(p, x, tau0, f0)
@@ -331,6 +405,6 @@ def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple
     """
     flow = body_flow(waves, eta, t, strips)
     u, w, q = (float(v) for v in nu)
-    still = np.array(hydrodynamic_load(p, u, w, q, None))
-    out = np.array([np.array(hydrodynamic_load(p, u, w, q, flow.stage(i))) - still for i in range(flow.u.shape[0])])
+    still = hydrodynamic_load_at(p, u, w, q, None)
+    out = np.array([hydrodynamic_load_at(p, u, w, q, flow, i) - still for i in range(flow.u.shape[0])])
     return out if np.ndim(t) else out[0]

@@ -32,6 +32,7 @@ from typing import Any, TextIO
 from .campaign_spec import CampaignSpec, CampaignTask
 from .campaign_store import Journal, write_tables
 from .campaign_task import TaskOutcome, run_task, spec_columns
+from .progress import ProgressBar
 from .stats import format_summary_table, summarise_campaign
 
 __all__ = ["CampaignProgress", "CampaignReport", "dask_client", "execute_tasks", "run_campaign"]
@@ -57,20 +58,16 @@ class CampaignReport:
 
 
 class CampaignProgress:
-    """done/total, elapsed, ETA and failures: a tqdm bar on a terminal, else a log line every ``interval`` s."""
+    """done/total, elapsed, ETA and failures on the shared :class:`~sitl.harness.progress.ProgressBar`:
+    a tqdm bar on a terminal, else a log line every ``interval`` s."""
 
     def __init__(self, total: int, done: int = 0, stream: TextIO | None = None, interval: float = 10.0,
                  enabled: bool = True):
         self.total, self.done, self.failed, self.ran = total, done, 0, 0
         self.stream = stream or sys.stderr
-        self.interval, self.enabled = interval, enabled
         self.t0 = time.monotonic()
-        self._last = self.t0
-        self._bar = None
-        if enabled and self.stream.isatty():
-            from tqdm import tqdm
-            self._bar = tqdm(total=total, initial=done, file=self.stream, unit="mission", dynamic_ncols=True,
-                             desc="campaign")
+        self._bar = ProgressBar(total, "campaign", self.stream, enabled=enabled, unit="mission", interval=interval,
+                                initial=done, line=self.line)
 
     def line(self) -> str:
         el = time.monotonic() - self.t0
@@ -83,16 +80,11 @@ class CampaignProgress:
         self.done += 1
         self.ran += 1
         self.failed += row.get("status") != "ok"
-        if self._bar is not None:
-            self._bar.set_postfix(failed=self.failed, refresh=False)
-            self._bar.update(1)
-        elif self.enabled and (time.monotonic() - self._last >= self.interval or self.done == self.total):
-            self._last = time.monotonic()
-            print(self.line(), file=self.stream, flush=True)
+        self._bar.set_postfix(failed=self.failed)
+        self._bar.update(self.done)
 
     def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
+        self._bar.close(completed=self.done >= self.total)
 
 
 @contextlib.contextmanager

@@ -188,10 +188,10 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     cli = [sys.executable, "-m", "sitl.harness.cli"]
     configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
     if spec.ff:
-        fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
+        fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--forecast", spec.forecast,
               "--network", str(netcfg), "--horizon", str(duration + 60.0)]
         if spec.snr_db is not None:
-            fc += ["--snr-db", str(spec.snr_db)]
+            fc += ["--forecast-snr-db", str(spec.snr_db)]
         children.append(_Child("forecast", fc, out / "forecast.log", env))
         _wait_ready(children, opt.ready_timeout_s)
     plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,

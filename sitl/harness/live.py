@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Callable
 
 from firmware_py.clocks import LockstepPacedClock
 from firmware_py.params import ParameterTable
@@ -30,7 +31,7 @@ class LiveSim:
 
     def __init__(self, spec: RunSpec | None = None, mavlink: list[str] | tuple[str, ...] = ("udpout:127.0.0.1:14550",),
                  speedup: float = 1.0, params: ParameterTable | None = None, signing_key: bytes | None = None,
-                 realtime: bool = False):
+                 realtime: bool = False, on_event: Callable[[int, str], None] | None = None):
         from firmware_py.mavlink import MavlinkLink
 
         self.setup: MissionSetup = build_mission(spec or RunSpec(), params=params, clock=LockstepPacedClock(speedup))
@@ -39,11 +40,35 @@ class LiveSim:
         self.link = MavlinkLink(self.firmware, list(mavlink), signing_key=signing_key)
         rate = self.setup.rate_hz
         self.firmware.add_task(Task("gcs", rate, self.link.update))
-        self.firmware.add_task(Task("world", rate, lambda _slot: self.setup.hal.step_world()))
+        self.firmware.add_task(Task("world", rate, self._step_world))
+        self.history: list[list[float]] = []   # t, x, z, θ, τ_X, τ_Z, τ_M per slot (for the summary)
+        if on_event is not None:   # the firmware's STATUSTEXT events (mode, arming, failsafes) as the link sends them
+            send = self.link.statustext
+
+            def tapped(severity: int, text: str, ep: int | None = None) -> None:
+                on_event(severity, text)
+                send(severity, text, ep)
+            self.link.statustext = tapped  # type: ignore[method-assign]
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.realtime = realtime
         self.scheduling = "normal"
+
+    def _step_world(self, _slot) -> None:
+        self.setup.hal.step_world()
+        s, last = self.setup.plant.state, self.firmware.last
+        tau = list(last.control.tau) if last is not None else [0.0, 0.0, 0.0]
+        self.history.append([s.t, *s.eta, *tau])
+
+    def summary(self) -> dict | None:
+        """RMSE, max error and mean power per DoF over the whole live run (None if under 2 s)."""
+        import numpy as np
+
+        from .metrics import station_keeping_metrics
+        h = np.array(self.history)
+        if h.shape[0] < 2 * self.setup.rate_hz:
+            return None
+        return station_keeping_metrics(h[:, 0], h[:, 1:4], self.setup.setpoint, h[:, 4:7])
 
     def start(self) -> LiveSim:
         self.link.start()

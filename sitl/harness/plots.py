@@ -25,7 +25,7 @@ from .results import TIMESERIES_COLUMNS, RunResult
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_reproduce", "plot_run"]
+__all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_compare", "plot_reproduce", "plot_run", "power_figure"]
 
 DPI = 120
 LABELS: tuple[str, ...] = tuple(v.label for v in PAPER_VARIANTS)   # C-PD, exact, 15 dB
@@ -102,34 +102,111 @@ def _zero_line(ax: Axes, label: str | None = None) -> None:
 
 # ---------------------------------------------------------------------------- one run
 
+def _shade(ax: Axes, t: np.ndarray, mask: np.ndarray, color: str, label: str | None = None) -> None:
+    """Shade the spans of ``t`` where ``mask`` holds, full height."""
+    if np.any(mask):
+        ax.fill_between(t, 0.0, 1.0, where=mask, transform=ax.get_xaxis_transform(), color=color, alpha=0.15,
+                        lw=0, label=label, step="mid")
+
+
+def _largest_event(result: RunResult, half_width: float = 15.0) -> tuple[str, float, tuple[float, float]]:
+    """The DoF and time of the largest error relative to its RMSE, and a window (s) around it."""
+    t = _col(result, "t")
+    best = ("surge", 0.0, -1.0)
+    for dof in DOF:
+        e = np.abs(_error(result, dof))
+        rms = float(np.sqrt(np.mean(e**2))) or 1.0
+        k = int(np.argmax(e))
+        if e[k] / rms > best[2]:
+            best = (dof, float(t[k]), float(e[k] / rms))
+    dof, tk, _ = best
+    return dof, tk, (max(float(t[0]), tk - half_width), min(float(t[-1]), tk + half_width))
+
+
 def plot_run(result: RunResult, path: str | Path) -> Path:
-    """Time history of one run as a PNG: wave elevation at the vehicle (m; plus the forecast's
-    if the run had one), then surge, heave (depth) and pitch error — truth solid, EKF estimate
-    thin, setpoint dotted at zero. Errors in m, m and degrees against time in s.
+    """Time history of one run as a PNG: wave elevation at the vehicle (m; plus the forecast's),
+    surge, heave (depth) and pitch error (m, m, deg; truth thick, EKF estimate thin dashed,
+    setpoint dotted at zero), the commanded wrench per thruster group (N, N m) with thruster
+    saturation shaded red, and a zoom on the largest error event. Shaded blue: FF active.
     """
     r = result.results
     t = _col(result, "t")
-    fig, axes = _figure(4, 1, (10.0, 9.0), sharex=True)
-    ax = axes[0, 0]
+    ff_on = _col(result, "ff_active") > 0.5
+    sat = _col(result, "saturated") > 0.5
+    fig = Figure(figsize=(10.0, 13.0), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(6, 1, gridspec_kw={"height_ratios": [1, 1, 1, 1, 1, 1.2]})
+    for ax in axes[1:5]:
+        ax.sharex(axes[0])
+    ax = axes[0]
     ax.plot(t, _col(result, "wave_eta"), color="tab:blue", lw=1.0, label="wave η at vehicle")
     fc = _col(result, "forecast_eta")
     if np.isfinite(fc).any():
         ax.plot(t, fc, color="tab:orange", lw=0.8, ls="--", label="forecast η")
     ax.set_ylabel("elevation η (m)")
-    ax.legend(loc="upper right", fontsize=8)
-    for ax, dof in zip(axes[1:, 0], DOF, strict=False):
-        ax.plot(t, _error(result, dof), color="k", lw=1.1, label="truth")
-        ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.6, label="EKF estimate")
+    for ax, dof in zip(axes[1:4], DOF, strict=True):
+        ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.7, ls="--", label="EKF estimate")
+        ax.plot(t, _error(result, dof), color="k", lw=1.2, label="truth")
         _zero_line(ax, "setpoint")
         ax.set_ylabel(_DOF_AXES[dof][4])
-        ax.legend(loc="upper right", fontsize=8, ncols=3)
-    axes[-1, 0].set_xlabel("time t (s)")
-    for ax in axes[:, 0]:
+    ax = axes[4]
+    ax.plot(t, _col(result, "tau_X"), color="tab:red", lw=0.8, label="horizontal group τ_X (N)")
+    ax.plot(t, _col(result, "tau_Z"), color="tab:green", lw=0.8, label="vertical group τ_Z (N)")
+    ax.plot(t, _col(result, "tau_M"), color="tab:purple", lw=0.8, label="vertical group τ_M (N m)")
+    ax.set_ylabel("commanded thrust")
+    _shade(ax, t, sat, "tab:red", f"saturated ({100 * np.mean(sat):.1f} % of ticks)")
+    for ax in axes[:4]:
+        _shade(ax, t, ff_on, "tab:blue", "FF active")
+    for ax in axes[:5]:
+        ax.legend(loc="upper right", fontsize=7, ncols=4)
         ax.grid(alpha=0.3)
+    axes[4].set_xlabel("time t (s)")
+    dof, tk, win = _largest_event(result)
+    m = _window(t, win)
+    ax = axes[5]
+    _shade(ax, t[m], sat[m], "tab:red", "saturated")
+    _shade(ax, t[m], ff_on[m], "tab:blue", "FF active")
+    ax.plot(t[m], _error(result, dof, estimate=True)[m], color="tab:green", lw=0.9, ls="--", label="EKF estimate")
+    ax.plot(t[m], _error(result, dof)[m], color="k", lw=1.4, label="truth")
+    _zero_line(ax)
+    ax.axvline(tk, color="tab:red", lw=0.8, ls=":")
+    ax.set_title(f"zoom: largest {dof} error, t = {tk:.1f} s", fontsize=9)
+    ax.set_ylabel(_DOF_AXES[dof][4])
+    ax.set_xlabel("time t (s)")
+    ax.legend(loc="upper right", fontsize=7, ncols=4)
+    ax.grid(alpha=0.3)
     rm = r.get("rmse", {})
     fig.suptitle(f"{r.get('case', '?')} {r.get('label', '?')}, seed {r.get('seed', '?')} — RMSE "
                  f"surge {rm.get('surge', np.nan):.3f} m, heave {rm.get('heave', np.nan):.3f} m, "
                  f"pitch {np.degrees(rm.get('pitch', np.nan)):.2f}°")
+    return _save(fig, path)
+
+
+def plot_compare(runs: Sequence[RunResult], names: Sequence[str], path: str | Path) -> Path:
+    """Runs overlaid: surge, heave and pitch error against time (m, m, deg; top) and their
+    histograms (share of ticks; bottom), one colour per run."""
+    fig, axes = _figure(2, 3, (14.0, 7.5))
+    colors = [f"C{i % 10}" for i in range(len(runs))]
+    for run, name, color in zip(runs, names, colors, strict=True):
+        t = _col(run, "t")
+        for j, dof in enumerate(DOF):
+            e = _error(run, dof)
+            rms = float(np.sqrt(np.mean(e**2)))
+            axes[0, j].plot(t, e, color=color, lw=0.7, alpha=0.8, label=f"{name} (RMSE {rms:.3g})")
+            axes[1, j].hist(e, bins=60, density=True, histtype="step", color=color, lw=1.2, label=name)
+    for j, dof in enumerate(DOF):
+        unit = _DOF_AXES[dof][4]
+        axes[0, j].set_ylabel(unit)
+        axes[0, j].set_xlabel("time t (s)")
+        axes[0, j].legend(fontsize=7, loc="upper right")
+        axes[1, j].set_xlabel(unit)
+        axes[1, j].set_ylabel("probability density (1/unit)")
+        axes[1, j].legend(fontsize=7, loc="upper right")
+        for ax in axes[:, j]:
+            ax.grid(alpha=0.3)
+    fig.suptitle("Compared runs: " + ", ".join(
+        f"{n} = {r.results.get('case')} {r.results.get('label')} seed {r.results.get('seed')}"
+        for n, r in zip(names, runs, strict=True)), fontsize=9)
     return _save(fig, path)
 
 
@@ -207,9 +284,14 @@ def _grouped_bars(ax: Axes, values: dict[str, list[float]], unit: str, fmt: str)
     ax.grid(axis="y", alpha=0.3)
 
 
+ANGLE_METRICS = ("rmse", "max_abs_error")
+"""results.json metrics whose pitch entry is an angle (rad, shown in deg); power is W for every DoF."""
+
+
 def _metric(runs: Sequence[RunResult], key: str, dof: str) -> dict[str, list[float]]:
-    """results[key][dof] per label and case, pitch converted from rad to deg."""
-    scale = float(np.degrees(1.0)) if dof == "pitch" else 1.0
+    """results[key][dof] per label and case; a pitch angle (RMSE, max error) converted from rad to deg,
+    any other metric (power, W) as it is."""
+    scale = float(np.degrees(1.0)) if dof == "pitch" and key in ANGLE_METRICS else 1.0
     return {label: [_select(runs, c, label).results[key][dof] * scale for c in CASES] for label in LABELS}
 
 
@@ -231,6 +313,12 @@ def plot_errors(runs: Sequence[RunResult], path: str | Path) -> Path:
 def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
     """Fig. 7: mean thruster power (W, the paper's T200 fit) per DoF and in total,
     grouped by case with one bar per controller."""
+    return _save(power_figure(runs), path)
+
+
+def power_figure(runs: Sequence[RunResult]) -> Figure:
+    """Fig. 7 as a figure: axes surge, heave, pitch, total; on each, the bars of LABELS[i] are
+    ``ax.containers[i]`` in CASES order, heights in W (the numbers of the reproduce table)."""
     fig, axes = _figure(1, 4, (14.0, 4.0))
     per = {dof: _metric(runs, "mean_power_w", dof) for dof in DOF}
     total = {label: list(np.sum([per[d][label] for d in DOF], axis=0)) for label in LABELS}
@@ -239,7 +327,7 @@ def plot_power(runs: Sequence[RunResult], path: str | Path) -> Path:
         ax.set_title(f"{name}")
     axes[0, 0].legend(fontsize=8, loc="upper left")
     fig.suptitle("Mean power per DoF and in total")
-    return _save(fig, path)
+    return fig
 
 
 def plot_reproduce(runs: Sequence[RunResult], out_dir: str | Path, window: tuple[float, float] = (250.0, 400.0),

@@ -26,7 +26,6 @@ from firmware_py.params import ParameterTable, load_params
 from sitl.plant import Plant
 from sitl.sea import Sea
 
-from .plots import plot_run
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_results
 from .spec import RunSpec
@@ -170,5 +169,6 @@ def write_run(result: RunResult, out: str | Path, plots: bool = True) -> Path:
     """DIR/results.json, DIR/timeseries.csv and (optionally) DIR/time_history.png."""
     out = write_results(result, out)
     if plots:
+        from .plots import plot_run  # matplotlib: imported only when a figure is drawn
         plot_run(result, out / "time_history.png")
     return out

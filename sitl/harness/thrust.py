@@ -141,6 +141,7 @@ def stream_thrust(endpoint: str, profile: ThrustProfile, units: str = "normalise
             if r != 0:
                 raise RuntimeError(f"vehicle refused to arm (MAV_RESULT {r})")
             armed_here = True
+            log(f"vehicle {target}: MANUAL, armed")
         period = 1.0 / rate
         t0 = time.monotonic()
         sent, k, next_hb = 0, 0, t0
@@ -165,7 +166,8 @@ def stream_thrust(endpoint: str, profile: ThrustProfile, units: str = "normalise
         for msg in stick_messages(conn.mav, target, 0.0, 0.0, 0.0):
             conn.mav.send(msg)
         if armed_here:
-            _command(conn, target, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+            r = _command(conn, target, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+            log(f"vehicle {target}: " + ("disarmed" if r == 0 else f"refused to disarm (MAV_RESULT {r})"))
         return {"ticks": k, "messages": sent, "duration_s": time.monotonic() - t0}
     finally:
         conn.close()

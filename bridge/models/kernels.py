@@ -1,0 +1,234 @@
+"""Compiled (numba) kernels for the models' hot paths, with the pure-numpy code as reference.
+
+The wave kinematics at a body's strips (:func:`body_flow_arrays`), the
+relative-velocity load (:func:`hydro_load`), the rates of paper Eq. 2
+(:func:`state_rates_arr`), one RK4 step (:func:`rk4_arr`) and the
+estimator's finite-difference Jacobian (:func:`jacobian_arr`) are written
+here once, in loops over plain float arrays, in the same arithmetic order as
+the reference code in :mod:`bridge.models.waves` and
+:mod:`bridge.models.vehicle` (tests assert agreement to 1e-12).
+
+``WAVEKEEP_NUMBA=0`` in the environment (read at import) selects the
+reference numpy/Python path everywhere; so does a missing numba. The
+kernels are compiled with ``cache=True`` (to ``__pycache__`` beside this
+file, or ``NUMBA_CACHE_DIR``): the first run on a machine pays the compile
+(a few seconds), later processes load the machine code.
+
+Parameter vector (``VehicleParams.kernel_params``), float64, in this order::
+
+    0 W   1 B   2 height   3 r_G[0]   4 r_G[2]   5 r_B[0]   6 r_B[2]
+    7 X_udot   8 Z_wdot   9 X_qdot   10 X_u   11 Z_w   12 M_q   13 X_uu   14 Z_ww   15 M_qq
+    16 M_RB[0,0]   17 M_RB[0,2]   18 M_RB[1,1]   19 M_RB[1,2]   20..28 M⁻¹ row-major
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "rk4_arr", "state_rates_arr", "warm_up"]
+
+
+def _wanted() -> bool:
+    """True unless WAVEKEEP_NUMBA is 0/false/no/off."""
+    return os.environ.get("WAVEKEEP_NUMBA", "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+try:
+    if not _wanted():
+        raise ImportError("WAVEKEEP_NUMBA=0")
+    from numba import njit
+    ENABLED = True
+except ImportError:   # the reference path only: the kernels below run as plain Python (tests call them so)
+    ENABLED = False
+
+    def njit(*args, **kwargs):  # type: ignore[no-redef]
+        """Stand-in for numba.njit: returns the function unchanged."""
+        return args[0] if args and callable(args[0]) else (lambda f: f)
+
+
+@njit(cache=True)
+def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
+                     eta0, eta1, th, xs, t):  # pragma: no cover - compiled
+    """Fluid velocity and local acceleration at a body's strips, body frame: out[4, T, S] = u, w, u̇, ẇ.
+
+    Components k (rad/m), ω (rad/s), ε (rad); ``coef``/``rate`` the (orders, N) series
+    constants of :class:`~bridge.models.waves.WaveComponents`; ``x_e2d`` = e^{−2kd}, ``inv`` =
+    1/(1 − e^{−2kd}), ``inv4`` = 8 inv⁴; pose (η0 m, η1 m depth, θ rad); strip x' (m); times t (s).
+    The arithmetic of :func:`~bridge.models.vehicle.body_flow` over
+    :func:`~bridge.models.waves.particle_kinematics_grid`, summed per component in order.
+    """
+    orders, n = coef.shape
+    S, T = xs.size, t.size
+    c, s = math.cos(th), math.sin(th)
+    on = orders * n
+    # cos/sin of ω t per time and order (order 2 by the double angle), laid out (T, orders·N)
+    cb = np.empty((T, on))
+    sb = np.empty((T, on))
+    for i in range(T):
+        for j in range(n):
+            b = t[i] * omega[j]
+            cb[i, j] = math.cos(b)
+            sb[i, j] = math.sin(b)
+            if orders > 1:
+                cb[i, n + j] = cb[i, j] ** 2 - sb[i, j] ** 2
+                sb[i, n + j] = cb[i, j] * sb[i, j] * 2.0
+    out = np.empty((4, T, S))
+    W = np.empty((4, on))
+    Wc = np.empty((4, on))
+    Ws = np.empty((4, on))
+    for p in range(S):
+        xe = eta0 + xs[p] * c
+        dep = min(max(eta1 - xs[p] * s, 0.0), water_depth)
+        for j in range(n):
+            a = xe * k[j] + phase[j]
+            ca1, sa1 = math.cos(a), math.sin(a)
+            ea = math.exp(-dep * k[j])
+            eb = x_e2d[j] / ea
+            W[0, j] = (ea + eb) * inv[j] * coef[0, j]
+            W[1, j] = (ea - eb) * inv[j] * coef[0, j]
+            W[2, j] = W[0, j] * rate[0, j]
+            W[3, j] = W[1, j] * rate[0, j]
+            for m in range(4):
+                Wc[m, j] = W[m, j] * ca1
+                Ws[m, j] = W[m, j] * sa1
+            if orders > 1:
+                ca2, sa2 = ca1 ** 2 - sa1 ** 2, ca1 * sa1 * 2.0
+                ea2 = ea * ea * x_e2d[j]
+                eb2 = eb * eb * x_e2d[j]
+                jj = n + j
+                W[0, jj] = (ea2 + eb2) * inv4[j] * coef[1, j]
+                W[1, jj] = (ea2 - eb2) * inv4[j] * coef[1, j]
+                W[2, jj] = W[0, jj] * rate[1, j]
+                W[3, jj] = W[1, jj] * rate[1, j]
+                for m in range(4):
+                    Wc[m, jj] = W[m, jj] * ca2
+                    Ws[m, jj] = W[m, jj] * sa2
+        for i in range(T):
+            # Σ W cos θ = Σ (W cos a) cos b + Σ (W sin a) sin b; Σ W sin θ = Σ (W sin a) cos b − Σ (W cos a) sin b
+            # eight independent sums in one pass (each in index order): latency, not one chain, bounds it
+            c0 = s0 = c1 = s1 = c2 = s2 = c3 = s3 = 0.0
+            for j in range(on):
+                cbj, sbj = cb[i, j], sb[i, j]
+                c0 += Wc[0, j] * cbj
+                s0 += Ws[0, j] * sbj
+                c1 += Ws[1, j] * cbj
+                s1 += Wc[1, j] * sbj
+                c2 += Ws[2, j] * cbj
+                s2 += Wc[2, j] * sbj
+                c3 += Wc[3, j] * cbj
+                s3 += Ws[3, j] * sbj
+            u = c0 + s0
+            w = -(c1 - s1)
+            ud = c2 - s2
+            wd = c3 + s3
+            out[0, i, p] = c * u - s * w
+            out[1, i, p] = s * u + c * w
+            out[2, i, p] = c * ud - s * wd
+            out[3, i, p] = s * ud + c * wd
+    return out
+
+
+@njit(cache=True)
+def hydro_load(pv, u, w, q, has_flow, xs, wts, up, wp, ax, az):  # pragma: no cover - compiled
+    """:func:`~bridge.models.vehicle.hydrodynamic_load` (N, N, N m) with the flow as arrays (S,)."""
+    X_udot, Z_wdot, X_qdot = pv[7], pv[8], pv[9]
+    X_u, Z_w, M_q, X_uu, Z_ww, M_qq = pv[10], pv[11], pv[12], pv[13], pv[14], pv[15]
+    if not has_flow:
+        ur, wr = u, w
+        X = -(X_u + X_uu * abs(u)) * u
+        Z = -(Z_w + Z_ww * abs(w)) * w
+        Mh = 0.0
+    else:
+        X = Z = Mh = ub = wb = 0.0
+        for j in range(xs.size):
+            urj, wrj = u - up[j], w - wp[j]
+            fz = Z_wdot * az[j] - (Z_w + Z_ww * abs(wrj)) * wrj
+            X += wts[j] * (X_udot * ax[j] - (X_u + X_uu * abs(urj)) * urj)
+            Z += wts[j] * fz
+            Mh -= wts[j] * xs[j] * fz
+            ub += wts[j] * up[j]
+            wb += wts[j] * wp[j]
+        ur, wr = u - ub, w - wb
+    pAx, pAz = X_udot * ur + X_qdot * q, Z_wdot * wr
+    X -= pAz * q
+    Z += pAx * q
+    Mh += pAz * ur - pAx * wr - (M_q + M_qq * abs(q)) * q
+    return X, Z, Mh
+
+
+@njit(cache=True)
+def state_rates_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az):  # pragma: no cover - compiled
+    """:func:`~bridge.models.vehicle.state_rates`: ẋ (6,) for x = [η, ν] under τ in the flow (arrays (S,))."""
+    z, th, u, w, q = x[1], x[2], x[3], x[4], x[5]
+    c, s = math.cos(th), math.sin(th)
+    p_x, p_z = pv[16] * u + pv[17] * q, pv[18] * w + pv[19] * q
+    Xh, Zh, Mh = hydro_load(pv, u, w, q, has_flow, xs, wts, up, wp, ax, az)
+    W, B = pv[0], pv[1]
+    if not z >= 0.5 * pv[2]:
+        B = B * min(1.0, max(0.0, z / pv[2] + 0.5))
+    WB = W - B
+    BG_z = pv[4] * W - pv[6] * B
+    BG_x = pv[3] * W - pv[5] * B
+    r0 = tau[0] + Xh - p_z * q - WB * s
+    r1 = tau[1] + Zh + p_x * q + WB * c
+    r2 = tau[2] + Mh + p_z * u - p_x * w - BG_z * s - BG_x * c
+    out = np.empty(6)
+    out[0] = c * u + s * w
+    out[1] = -s * u + c * w
+    out[2] = q
+    for i in range(3):
+        out[3 + i] = pv[20 + 3 * i] * r0 + pv[21 + 3 * i] * r1 + pv[22 + 3 * i] * r2
+    return out
+
+
+@njit(cache=True)
+def rk4_arr(pv, x, h, tau_stages, has_flow, xs, wts, up, wp, ax, az):  # pragma: no cover - compiled
+    """:func:`~bridge.models.vehicle.rk4_step`; the flow arrays are (3, S), one row per stage time."""
+    k1 = state_rates_arr(pv, x, tau_stages[0], has_flow, xs, wts, up[0], wp[0], ax[0], az[0])
+    k2 = state_rates_arr(pv, x + (0.5 * h) * k1, tau_stages[1], has_flow, xs, wts, up[1], wp[1], ax[1], az[1])
+    k3 = state_rates_arr(pv, x + (0.5 * h) * k2, tau_stages[1], has_flow, xs, wts, up[1], wp[1], ax[1], az[1])
+    k4 = state_rates_arr(pv, x + h * k3, tau_stages[2], has_flow, xs, wts, up[2], wp[2], ax[2], az[2])
+    return x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+@njit(cache=True)
+def jacobian_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az):  # pragma: no cover - compiled
+    """A = ∂ẋ/∂x (6, 6) by forward differences, step 1e-6·max(1, |x_j|) (the estimator's F)."""
+    f0 = state_rates_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az)
+    A = np.empty((6, 6))
+    for j in range(6):
+        d = 1e-6 * max(1.0, abs(x[j]))
+        xp = x.copy()
+        xp[j] += d
+        fj = state_rates_arr(pv, xp, tau, has_flow, xs, wts, up, wp, ax, az)
+        for i in range(6):
+            A[i, j] = (fj[i] - f0[i]) / d
+    return A
+
+
+_warm = False
+
+
+def warm_up() -> None:
+    """Load (or compile) every kernel now, once per process, with tiny inputs.
+
+    numba resolves and loads a kernel's cached machine code on its first call (≈ 0.1–0.3 s
+    in all); a real-time loop must not pay that on its first ticks, so the models call this
+    when they are built (:class:`~bridge.models.vehicle.VehicleParams`).
+    """
+    global _warm
+    if _warm or not ENABLED:
+        return
+    _warm = True
+    one, z1, z3 = np.ones(1), np.zeros(1), np.zeros((3, 1))
+    pv = np.ones(29)
+    body_flow_arrays(one, one, z1, np.ones((2, 1)), np.ones((2, 1)), z1, one, one, 10.0, 0.0, 1.0, 0.0, z1,
+                     np.zeros(3))
+    x, tau = np.zeros(6), np.zeros((3, 3))
+    for has in (True, False):
+        hydro_load(pv, 0.0, 0.0, 0.0, has, z1, one, z1, z1, z1, z1)
+        state_rates_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
+        rk4_arr(pv, x, 0.05, tau, has, z1, one, z3, z3, z3, z3)
+        jacobian_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)

@@ -1,0 +1,276 @@
+"""Shared options and input checks of the ``wavekeep`` command line.
+
+Every bad input is a :class:`UsageError` — one line ``wavekeep CMD: …`` on stderr, exit 2 —
+found before anything is simulated or written: option types (:func:`seed`, :func:`duration`,
+:func:`port`, ...), the output path (:func:`check_out`), the run options and their
+parameter overrides (:func:`run_spec`). Only the standard library is imported here, so
+``wavekeep --help`` stays fast.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+__all__ = ["MAX_DURATION_S", "Parser", "UsageError", "check_duration", "check_out", "run_spec"]
+
+MAX_SEED = 2**63 - 1
+MAX_DURATION_S = 86400.0
+"""Longest mission or record a command accepts (one day of simulated time)."""
+
+RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json")
+"""What a run leaves in its folder: with ``--force`` these are removed before the new run writes."""
+
+
+class UsageError(Exception):
+    """A bad option or combination of options: reported in one line, exit status 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``wavekeep CMD: message``) and whose help shows defaults."""
+
+    def __init__(self, *a: Any, **kw: Any):
+        kw.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*a, **kw)
+
+    def error(self, message: str):
+        raise UsageError(message)
+
+
+# ---------------------------------------------------------------------------- option types
+
+def _number(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return v
+
+
+def positive(text: str) -> float:
+    v = _number(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return v
+
+
+def duration(text: str) -> float:
+    """Seconds in (0, one day]; the lower bound of one control period is :func:`check_duration`'s."""
+    v = positive(text)
+    if v > MAX_DURATION_S:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_DURATION_S:g} s (one day), got {text}")
+    return v
+
+
+def seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= v <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 2^63 - 1], got {text}")
+    return v
+
+
+def snr_db(text: str) -> float:
+    v = _number(text)
+    if not -20.0 <= v <= 80.0:
+        raise argparse.ArgumentTypeError(f"must be a number of dB in [-20, 80], got {text}")
+    return v
+
+
+def port(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a port number, got {text!r}") from None
+    if not 1 <= v <= 65535:
+        raise argparse.ArgumentTypeError(f"must be a port in 1-65535, got {text}")
+    return v
+
+
+def count(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
+    return v
+
+
+# ---------------------------------------------------------------------------- checks
+
+def check_duration(value: float | None, mission: str, option: str = "--duration") -> None:
+    """Refuse a duration shorter than two control periods of ``mission`` (nothing to fly or report)."""
+    if value is None:
+        return
+    from bridge.schemas import load_mission_config
+
+    rate = load_mission_config(mission)["control_rate"]
+    if value < 2.0 / rate:
+        raise UsageError(f"{option} {value:g} s is shorter than two control periods ({2.0 / rate:g} s at "
+                         f"{rate:g} Hz)")
+
+
+def check_out(path: str | Path, kind: str = "dir", force: bool = False, option: str = "--out") -> Path:
+    """Refuse an output path that cannot be written, before anything runs; nothing is created here.
+
+    ``kind`` "dir": a run folder — not a file, not under a file, writable, and empty unless
+    ``force`` (then the files a previous run left, :data:`RUN_FILES`, are removed so stale files
+    never mix with new ones). ``kind`` "campaign": a folder a rerun resumes (its files are kept).
+    ``kind`` "file": a file to (over)write.
+    """
+    p = Path(path)
+    if kind in ("dir", "campaign") and p.exists() and not p.is_dir():
+        raise UsageError(f"{option} {path}: is a file, not a folder")
+    if kind == "file" and p.is_dir():
+        raise UsageError(f"{option} {path}: is a folder, not a file")
+    anc = p if p.is_dir() else p.parent
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not anc.is_dir():
+        raise UsageError(f"{option} {path}: {anc} is a file, not a folder")
+    try:
+        os.rmdir(tempfile.mkdtemp(dir=anc, prefix=".wavekeep-"))
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: cannot write in {anc} ({exc.strerror or exc})") from None
+    if kind == "dir" and p.is_dir() and any(p.iterdir()):
+        if not force:
+            raise UsageError(f"{option} {path}: folder is not empty (a previous run?); choose a new folder "
+                             "or pass --force to replace the previous run's files")
+        for pattern in RUN_FILES:
+            for f in p.glob(pattern):
+                if f.is_file():
+                    f.unlink()
+    return p
+
+
+def endpoint(url: str, option: str = "--mavlink", bind: bool = False) -> str:
+    """A MAVLink endpoint ``udpout|udpin|tcp|tcpin:HOST:PORT``; with ``bind``, a listening one must be free."""
+    import socket
+
+    kind, _, rest = url.partition(":")
+    host, sep, port_text = rest.rpartition(":")
+    if kind not in ("udpout", "udpin", "tcp", "tcpin") or not sep or not host:
+        raise UsageError(f"{option} {url}: expected udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT "
+                         "or tcpin:HOST:PORT")
+    try:
+        n = port("1" if port_text == "0" and kind in ("udpin", "tcpin") else port_text) and int(port_text)
+    except (argparse.ArgumentTypeError, ValueError) as exc:
+        raise UsageError(f"{option} {url}: {exc}") from None
+    if bind and kind in ("udpin", "tcpin"):
+        kind_sock = socket.SOCK_DGRAM if kind == "udpin" else socket.SOCK_STREAM
+        with socket.socket(socket.AF_INET, kind_sock) as s:
+            try:
+                s.bind((host, n))
+            except OSError as exc:
+                raise UsageError(f"{option} {url}: cannot listen on {host}:{n} ({exc.strerror or exc}); "
+                                 "is another program using the port?") from None
+    return url
+
+
+# ---------------------------------------------------------------------------- run options
+
+def overrides(args: argparse.Namespace) -> dict[str, float]:
+    """Parameter overrides from ``--params FILE`` (NAME: value, only what changes) then ``--set NAME=VALUE``,
+    each checked against the parameter table; a bad one is blamed on the option or file it came from."""
+    from bridge.configfile import ConfigError, read_yaml
+    from firmware_py.params import load_params
+
+    table = load_params()
+    out: dict[str, float] = {}
+    params_file = getattr(args, "params", None)
+    if params_file:
+        try:
+            doc = read_yaml(params_file)
+        except (OSError, ConfigError) as exc:
+            raise UsageError(f"--params {params_file}: {exc}") from None
+        if not isinstance(doc, dict):
+            raise UsageError(f"--params {params_file}: expected NAME: value lines")
+        for name, value in doc.items():
+            why = table.set(str(name), value) if isinstance(value, int | float) else f"{value!r} is not a number"
+            if why:
+                raise UsageError(f"--params {params_file}: {name}: {why}")
+            out[str(name)] = float(value)
+    for item in getattr(args, "set", None) or []:
+        name, eq, text = item.partition("=")
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        why = ("expected NAME=VALUE" if not eq else f"{text!r} is not a number" if value is None
+               else table.set(name.strip(), value))
+        if why:
+            raise UsageError(f"--set {item}: {why}")
+        out[name.strip()] = float(text)
+    return out
+
+
+_SPEC_OPTIONS = (("controller", "--controller"), ("forecast SNR", "--forecast-snr-db"), ("forecast", "--forecast"),
+                 ("seed", "--seed"), ("duration", "--duration"))
+
+
+def run_spec(args: argparse.Namespace) -> Any:
+    """The :class:`~sitl.harness.spec.RunSpec` a run command's options describe, checked by option name."""
+    from ..spec import RunSpec
+
+    forecast = getattr(args, "forecast", "oracle")
+    snr = getattr(args, "forecast_snr_db", None)
+    if snr is not None and (args.controller != "cpd_ff" or forecast != "oracle"):
+        raise UsageError("--forecast-snr-db applies only to --controller cpd_ff with --forecast oracle "
+                         f"(got --controller {args.controller} --forecast {forecast})")
+    check_duration(getattr(args, "duration", None), args.mission)
+    try:
+        return RunSpec(case=args.case, controller=args.controller, snr_db=snr, seed=args.seed,
+                       duration=getattr(args, "duration", None), mission=args.mission, vehicle=args.vehicle,
+                       forecast=forecast, overrides=overrides(args))
+    except ValueError as exc:
+        msg = str(exc)
+        for key, option in _SPEC_OPTIONS:
+            if msg.startswith(key):
+                msg = option + msg[len(key):]
+                break
+        raise UsageError(msg) from None
+
+
+def add_common(p: argparse.ArgumentParser) -> None:
+    """--case, --seed, --mission, --vehicle."""
+    p.add_argument("--case", default="W3", help="sea state: a name in configs/sea/ (W1, W2, W3) or a sea YAML path")
+    p.add_argument("--seed", type=seed, default=None,
+                   help="sea realisation (and, from it, sensor noise and forecast error), integer in [0, 2^63 - 1]; "
+                   "default: the sea config's")
+    p.add_argument("--mission", default="station_keeping", help="mission config: a name in configs/mission/ or a path")
+    p.add_argument("--vehicle", default="bluerov2_heavy", help="vehicle config: a name in configs/vehicle/ or a path")
+
+
+def add_controller(p: argparse.ArgumentParser, forecast_help: str = "forecast source") -> None:
+    """--controller, --forecast, --forecast-snr-db."""
+    p.add_argument("--controller", choices=("cpd", "cpd_ff"), default="cpd_ff",
+                   help="cpd: cascaded PD feedback; cpd_ff: with the wave feed-forward")
+    p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
+                   help=f"{forecast_help}: oracle (the sea's own components) or dswp (predicted from the up-wave buoy)")
+    p.add_argument("--forecast-snr-db", type=snr_db, default=None,
+                   help="oracle forecast error: the paper's injected error at this SNR (dB, in [-20, 80]); "
+                   "default: the exact forecast")
+
+
+def add_params(p: argparse.ArgumentParser) -> None:
+    """--params FILE and --set NAME=VALUE."""
+    p.add_argument("--params", default=None, metavar="FILE",
+                   help="YAML of firmware parameters to change (NAME: value; only what differs from "
+                   "configs/firmware/params.yaml)")
+    p.add_argument("--set", action="append", default=None, metavar="NAME=VALUE",
+                   help="set one firmware parameter (repeatable; after --params)")
+
+
+def add_out(p: argparse.ArgumentParser, required: bool = True, default: str | None = None,
+            what: str = "run folder") -> None:
+    p.add_argument("--out", required=required, default=default, help=f"{what} (created; must be new or empty)")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty --out, first removing the files a previous run left there")

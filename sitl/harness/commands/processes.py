@@ -1,0 +1,125 @@
+"""``wavekeep sim`` (the SITL processes, launched and flown as a ground station) and ``forecast`` (shore side)."""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import options as o
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("forecast", help="the wave forecast service (shore side) on zenoh",
+                       description="The wave forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM.")
+    o.add_common(p)
+    p.add_argument("--site", default=None, help="site name for the key expressions; default: configs/network.yaml's")
+    p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
+                   help="forecast source: oracle (the sea's own components) or dswp (from the up-wave buoy)")
+    p.add_argument("--forecast-snr-db", type=o.snr_db, default=None,
+                   help="oracle: inject the paper's error at this SNR (dB, in [-20, 80]); default: the exact forecast")
+    # the old spellings, hidden
+    p.add_argument("--mode", dest="forecast", choices=("oracle", "dswp"), default=argparse.SUPPRESS,
+                   help=argparse.SUPPRESS)
+    p.add_argument("--snr-db", dest="forecast_snr_db", type=o.snr_db, default=argparse.SUPPRESS,
+                   help=argparse.SUPPRESS)
+    p.add_argument("--rate", type=o.positive, default=2.0, help="forecasts per second of the vehicle's clock (Hz)")
+    p.add_argument("--horizon", type=o.positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
+    p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
+    p.add_argument("--network", default="network", help="network config: a name in configs/ or a path")
+    p.set_defaults(func=cmd_forecast)
+
+    p = sub.add_parser("sim", help="SITL: plant, forecast service and firmware as processes, flown over MAVLink",
+                       description="The plant, the forecast service and the firmware as separate processes, flown "
+                       "over MAVLink as a ground station would; writes results.json, timeseries.csv, "
+                       "time_history.png, mission.tlog, each process's log and run.json.")
+    o.add_common(p)
+    o.add_controller(p, forecast_help="forecast service mode")
+    p.add_argument("--speedup", type=o.positive, default=None,
+                   help="simulated seconds per wall-clock second; default: as fast as the CPU allows")
+    p.add_argument("--duration", type=o.duration, default=None, help="mission length (s); default: the mission's (600)")
+    o.add_params(p)
+    p.add_argument("--plant-port", type=o.port, default=9002, help="UDP port of the plant's JSON SITL server")
+    p.add_argument("--gcs-port", type=o.port, default=14550, help="UDP port the launcher (as GCS) listens on")
+    p.add_argument("--zenoh-port", type=o.port, default=7447, help="TCP port of the zenoh router")
+    p.add_argument("--companion", nargs="?", const="rc", choices=("rc", "servo"), default=None,
+                   help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
+                        "ArduSub (docs/companion.md)")
+    p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
+    o.add_out(p, required=False, default="runs/sim")
+    p.set_defaults(func=cmd_sim)
+
+    sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)",
+                   add_help=False)
+    sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)", add_help=False)
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
+    from ..launcher import LaunchError, SimOptions, launch
+    from ..metrics import format_table
+    from ..provenance import write_run_record
+
+    ports = {"--plant-port": args.plant_port, "--gcs-port": args.gcs_port, "--zenoh-port": args.zenoh_port}
+    names = list(ports)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if ports[a] == ports[b]:
+                raise o.UsageError(f"{a} and {b} are both {ports[a]}: each process needs its own port")
+    spec = o.run_spec(args)
+    out = o.check_out(args.out, force=args.force)
+    opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=args.plant_port,
+                     gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
+    try:
+        if args.companion:
+            from ..companion_launch import launch_companion
+            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+        else:
+            r = launch(opt, progress=None)
+    except LaunchError as exc:
+        print(f"wavekeep sim: {exc}", file=sys.stderr)
+        return exc.status
+    write_run_record(out, args.argv, spec, seed=r["seed"])
+    print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
+          f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
+    print(format_table({r["label"]: r}))
+    print(f"wrote {out}: results.json, timeseries.csv, time_history.png, mission.tlog, *.log, run.json")
+    return 0
+
+
+def cmd_forecast(args: argparse.Namespace) -> int:
+    """The forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM."""
+    import signal
+    import threading
+
+    import numpy as np
+
+    from bridge.forecast import derive_seeds, oracle_forecast
+    from bridge.forecast_service import ForecastService
+    from bridge.schemas import load_mission_config
+    from bridge.zenoh_net import load_network_config, open_session
+    from sitl.sea import Sea
+
+    if args.forecast_snr_db is not None and args.forecast != "oracle":
+        raise o.UsageError("--forecast-snr-db applies only to --forecast oracle")
+    net = load_network_config(args.network)
+    site = args.site or net["site"]
+    sea = Sea.load(args.case, seed=args.seed)
+    oracle = None
+    if args.forecast == "oracle":
+        _, forecast_seed = derive_seeds(sea.seed)
+        oracle = oracle_forecast(sea.components, args.forecast_snr_db, np.random.default_rng(forecast_seed))
+    x_vehicle = load_mission_config(args.mission)["setpoint"]["x"]
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    with open_session(net, "service") as session:
+        svc = ForecastService(session, site, args.forecast, oracle=oracle, x_vehicle=x_vehicle,
+                              water_depth=sea.water_depth, rate_hz=args.rate, horizon_s=args.horizon,
+                              deep_water=args.deep_water)
+        print(f"wavekeep forecast: ready, site {site}, mode {args.forecast}"
+              + (f" ({args.forecast_snr_db:g} dB error)" if args.forecast_snr_db is not None else ""), flush=True)
+        try:
+            svc.run(stop)
+        finally:
+            svc.close()
+    print(f"wavekeep forecast: stopped; {svc.counters}", flush=True)
+    return 0

@@ -1,0 +1,78 @@
+"""How to rerun a run: the package version, the git commit, and the ``run.json`` record each run folder gets.
+
+``run.json`` holds the exact command line, the working directory, the resolved configs (sea,
+mission, vehicle), every firmware parameter (with the overrides marked), the seed, the
+version and the commit — enough to rerun the run and to see what it was.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shlex
+import subprocess
+import sys
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+__all__ = ["git_commit", "package_version", "run_record", "version_string", "write_run_record"]
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("wavekeep")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def git_commit() -> str | None:
+    """The source tree's commit (``+dirty`` with uncommitted changes), or None outside a git checkout."""
+    try:
+        head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short=12", "HEAD"], capture_output=True,
+                              text=True, timeout=5)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head.stdout.strip() + ("+dirty" if dirty else "")
+
+
+def version_string() -> str:
+    commit = git_commit()
+    return f"wavekeep {package_version()}" + (f" (git {commit})" if commit else "")
+
+
+def run_record(argv: list[str], spec: Any = None, seed: int | None = None, **extra: Any) -> dict[str, Any]:
+    """The record of one run (see the module docstring); ``spec`` a RunSpec, or None (then only what is given)."""
+    doc: dict[str, Any] = {
+        "command": shlex.join(["wavekeep", *argv]), "argv": list(argv), "cwd": os.getcwd(),
+        "version": package_version(), "git_commit": git_commit(), "python": sys.version.split()[0], "seed": seed,
+    }
+    if spec is not None:
+        from bridge.schemas import load_mission_config, load_vehicle_config
+        from firmware_py.params import load_params
+        from sitl.sea import load_sea_config
+
+        params = load_params()
+        for name, value in spec.overrides.items():
+            params.set(name, value)
+        doc.update(spec={**asdict(spec), "overrides": dict(spec.overrides)},
+                   configs={"sea": load_sea_config(spec.case), "mission": load_mission_config(spec.mission),
+                            "vehicle": load_vehicle_config(spec.vehicle)},
+                   parameters=params.as_dict(), parameter_overrides=dict(spec.overrides))
+    doc.update(extra)
+    return doc
+
+
+def write_run_record(out: str | Path, argv: list[str], spec: Any = None, seed: int | None = None,
+                     **extra: Any) -> Path:
+    """DIR/run.json (see :func:`run_record`)."""
+    path = Path(out) / "run.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(run_record(argv, spec, seed, **extra), indent=2, default=str))
+    return path
