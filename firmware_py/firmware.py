@@ -368,11 +368,13 @@ class Firmware:
         delay = int(self.params["WK_OUT_DELAY"])
         flow, seq = self.predicted_flow(t)
         ahead_flow = flow if not delay else self.predicted_flow(t + delay * self.h)[0]
-        ff_active, _, ff = self._feedforward(ahead_flow)
+        ff_active, ff_flow, ff = self._feedforward(ahead_flow)
+        if ff_flow is None:   # a forecast that could not be evaluated is no forecast for the estimator either
+            flow = None
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         control = self.controller.update(self._ahead(t), self.setpoint, ff.tau_ff, self.h)
         mix = self._mix(control, t)
-        self._output(mix, flow if ff_active else None, t)
+        self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight)
         if self.on_tick is not None:

@@ -199,7 +199,7 @@ def test_companion_lockstep_run_is_deterministic(tmp_path):
         r = launch_companion(opt, "rc", free_port())
         return r, np.loadtxt(tmp_path / name / "timeseries.csv", delimiter=",", skiprows=1)
     (a, ta), (b, tb) = run("a"), run("b")
-    assert np.array_equal(ta, tb)
+    assert np.array_equal(ta, tb, equal_nan=True)   # (no forecast: forecast_eta is NaN)
     assert a["rmse"] == b["rmse"]
     assert a["companion"]["telemetry_to_command_ms"]["n"] > 100
-    assert json.loads((tmp_path / "a" / "results.json").read_text())["rmse"]["z"] < 0.2
+    assert json.loads((tmp_path / "a" / "results.json").read_text())["rmse"]["heave"] < 0.2
