@@ -72,6 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--realtime", choices=("auto", "on", "off"), default="auto",
                    help="SCHED_FIFO for the loop where the OS permits it (falls back quietly); "
                         "auto: on for paced runs (--speedup), off for unpaced lockstep")
+    p.add_argument("--companion-lockstep", action="store_true",
+                   help="SITL: wait each tick for a companion computer's answer (firmware_py/mavlink/lockstep.py)")
     p.add_argument("--log", default=None, help="write every tick (t + TICK_COLUMNS) to this CSV at exit, "
                    "and the scheduler's statistics beside it as JSON")
     return p
@@ -135,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.log:
         from .firmware import tick_row
         fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
-    link = MavlinkLink(fw, args.mavlink or ["udpout:127.0.0.1:14550"], signing_key=key)
+    link = MavlinkLink(fw, args.mavlink or ["udpout:127.0.0.1:14550"], signing_key=key,
+                       lockstep=args.companion_lockstep)
     session, forecast_link = (None, None) if args.no_forecast else _open_forecast_link(args, fw)
     try:
         hal.start()     # after the forecast subscriber exists: the plant's first buoy record may trigger a forecast

@@ -107,6 +107,21 @@ class WaveFeedForward:
                             (p.M_q + p.M_qq * abs(q)) * q])
         return with_flow + damping
 
+    @staticmethod
+    def _bounded(nu: np.ndarray, flow: BodyFlow) -> np.ndarray:
+        """ν with u and w each clamped between 0 (holding station) and the water's mean velocity at the body.
+
+        A vehicle is pushed by the waves, never faster than the water: bounding the estimate this
+        way keeps an estimator's transient error (e.g. gated position fixes in a saturating
+        wave) from predicting relative flows beyond the paper law's, so the robust law's load
+        lies between the station-holding load and none.
+        """
+        out = np.array(nu, dtype=float)
+        for i, comp in ((0, flow.u[2]), (1, flow.w[2])):
+            v_p = float(np.dot(flow.wts, comp))
+            out[i] = min(max(out[i], min(0.0, v_p)), max(0.0, v_p))
+        return out
+
     def _observed_load(self, x_hat: np.ndarray, tau_thr: np.ndarray) -> np.ndarray | None:
         """The load the estimate's motion reveals over the last period, in the terms of :meth:`_load` (mode 1).
 
@@ -146,7 +161,7 @@ class WaveFeedForward:
         else:
             nu_hat = np.asarray(x_hat[3:], dtype=float)
             self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
-            tau_e_hat = self._load(self._nu_f, flow, 2, mode)
+            tau_e_hat = self._load(self._bounded(self._nu_f, flow) if mode == 1 else self._nu_f, flow, 2, mode)
             if mode == 1:
                 self._monitor(flow, x_hat, tau_thr)
         if not np.all(np.isfinite(tau_e_hat)):

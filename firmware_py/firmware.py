@@ -20,7 +20,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_nodes
+from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
 from .estimator import PlanarEKF
@@ -30,7 +30,7 @@ from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
-from .params import ParameterTable
+from .params import RCIN_PASSTHROUGH, ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
@@ -133,7 +133,9 @@ class Firmware:
         self.sensors_healthy = False
         self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
         self._motor_test: MotorTest | None = None
+        self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self._pending: Prediction | None = None
+        self._in_flight: deque[Prediction] = deque()   # commands sent, not yet acting (WK_OUT_DELAY)
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
         self._depth_t = -math.inf        # vehicle time of the last depth reading
@@ -262,6 +264,28 @@ class Firmware:
         clip = lambda v: 0.0 if not math.isfinite(v) else min(1.0, max(-1.0, v))  # noqa: E731
         self.pilot = PilotInput(clip(surge), clip(up), clip(pitch), self._now)
 
+    def rc_override_aux(self, channel: int, pwm: int | None) -> None:
+        """RC input ``channel`` (9–16) overridden to ``pwm`` µs, or released (None); stamped with the vehicle clock."""
+        if pwm is None:
+            self.rc_aux.pop(channel, None)
+        else:
+            self.rc_aux[channel] = (int(pwm), self._now)
+
+    def _passthrough(self, t: float) -> dict[int, int]:
+        """Outputs whose SERVOn_FUNCTION is RCIN9–16 (ArduSub's pass-through): output index → µs.
+
+        A released or expired (``RC_OVERRIDE_TIME``) input gives neutral.
+        """
+        out: dict[int, int] = {}
+        expiry = self.params["RC_OVERRIDE_TIME"]
+        for i in range(self.mixer.layout.n):
+            function = int(self.params[f"SERVO{i + 1}_FUNCTION"])
+            if function in RCIN_PASSTHROUGH:
+                pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
+                fresh = expiry < 0 or t - since <= expiry
+                out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US
+        return out
+
     def motor_test(self, motor: int, pwm: int, timeout_s: float) -> MAV_RESULT:
         """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it)."""
         if not self.armed:
@@ -347,11 +371,15 @@ class Firmware:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
             self._output(self.mixer.neutral(), None, t)
             return
+        delay = int(self.params["WK_OUT_DELAY"])
         flow, seq = self.predicted_flow(t)
-        ff_active, flow, ff = self._feedforward(flow)
+        ahead_flow = flow if not delay else self.predicted_flow(t + delay * self.h)[0]
+        ff_active, ff_flow, ff = self._feedforward(ahead_flow)
+        if ff_flow is None:   # a forecast that could not be evaluated is no forecast for the estimator either
+            flow = None
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
-        control = self.controller.update(self.ekf.x, self.setpoint, ff.tau_ff, self.h, d_hat)
+        control = self.controller.update(self._ahead(t), self.setpoint, ff.tau_ff, self.h, d_hat)
         mix = self._mix(control, t)
         self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
@@ -398,6 +426,16 @@ class Firmware:
             return self.mixer.output(pwm)
         self._motor_test = None
         tau = np.where(self.flight_mode.holds, control.tau, self._pilot_wrench(t))
+        passthrough = self._passthrough(t)
+        if passthrough:
+            # Outputs set to RCIN9-16 take the companion's PWM; the motor model follows what is sent
+            f_hat = self.mixer.f_hat
+            mix = self.mixer.mix(np.where(np.isfinite(tau), tau, 0.0))
+            self.mixer.f_hat = f_hat
+            pwm = mix.pwm.copy()
+            for i, v in passthrough.items():
+                pwm[i] = v
+            return self.mixer.output(pwm)
         if np.all(np.isfinite(tau)):
             return self.mixer.mix(tau)
         # never send a non-finite command to the thrusters
@@ -405,7 +443,24 @@ class Firmware:
         self.controller.reset()
         return self.mixer.neutral()
 
+    def _ahead(self, t: float) -> np.ndarray:
+        """The state the command will meet: the estimate propagated over the commands still in flight
+        (``WK_OUT_DELAY`` ticks: a companion's commands act one tick after its telemetry), else the estimate."""
+        x = self.ekf.x
+        for i, p in enumerate(self._in_flight):
+            flow = self.predicted_flow(t + i * self.h)[0] if p.flow is not None else None
+            x = rk4_step(self.vehicle, x, self.h, p.tau_stages + self.ekf.disturbance, flow)
+        return x
+
     def _output(self, mix: MixerOutput, flow: BodyFlow | None, t: float) -> None:
-        """Write the PWM, and hand the next tick's prediction what this one commanded."""
+        """Write the PWM, and hand the next tick's prediction what this one commanded (or, with
+        ``WK_OUT_DELAY`` d, what tick k − d commanded: the command acting over the coming period)."""
         self.hal.write_pwm(mix.pwm)
-        self._pending = Prediction(mix.tau_stages, flow, t)
+        delay = int(self.params["WK_OUT_DELAY"])
+        if not delay:
+            self._in_flight.clear()
+            self._pending = Prediction(mix.tau_stages, flow, t)
+            return
+        self._in_flight.append(Prediction(mix.tau_stages, flow, t))
+        acting = self._in_flight.popleft() if len(self._in_flight) > delay else None
+        self._pending = Prediction(np.zeros((3, 3)) if acting is None else acting.tau_stages, flow, t)

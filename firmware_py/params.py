@@ -19,7 +19,7 @@ from pathlib import Path
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
-__all__ = ["PARAM_DEFS", "ParamDef", "ParameterTable", "load_params"]
+__all__ = ["PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params"]
 
 
 INT_TYPE_RANGES: dict[str, tuple[int, int]] = {"INT8": (-128, 127), "INT16": (-32768, 32767),
@@ -47,6 +47,7 @@ class ParamDef:
     integer: bool = False
     ptype: str = ""
     readonly: bool = False
+    allowed: frozenset[float] | None = None     # when set, only these values (e.g. a thruster output's functions)
 
     def __post_init__(self) -> None:
         if not (1 <= len(self.name) <= 16) or self.name.upper() != self.name:
@@ -73,6 +74,8 @@ class ParamDef:
             return f"got {value!r}; allowed: an integer in [{self.lo:g}, {self.hi:g}]"
         if not self.lo <= value <= self.hi:
             return f"got {value!r}; allowed: [{self.lo:g}, {self.hi:g}] {self.units}".rstrip()
+        if self.allowed is not None and float(value) not in self.allowed:
+            return f"got {value!r}; allowed: {', '.join(f'{v:g}' for v in sorted(self.allowed))}"
         return None
 
 
@@ -119,11 +122,20 @@ def _ardusub_defs() -> list[ParamDef]:
     for b in range(16):
         defs.append(ParamDef(f"BTN{b}_FUNCTION", 0, 127, "", f"joystick button {b} function", ptype=i8))
         defs.append(ParamDef(f"BTN{b}_SFUNCTION", 0, 127, "", f"joystick button {b} function with shift", ptype=i8))
-    for ch in range(1, 17):
+    for ch in range(1, 9):     # a thruster output: its motor, or RC input 9-16 passed through (companion servo mode)
+        defs.append(ParamDef(f"SERVO{ch}_FUNCTION", -1, 200, "", f"output {ch} function (32+{ch}: motor {ch}, "
+                             "59-66: RCIN9-16 pass-through)", ptype=i16,
+                             allowed=frozenset({32.0 + ch, *(float(f) for f in RCIN_PASSTHROUGH)})))
+    for ch in range(9, 17):
         defs.append(ParamDef(f"SERVO{ch}_FUNCTION", -1, 200, "", f"output {ch} function (33-40 motors, "
-                             "51-66 RC input pass-through, 7 camera tilt)", ptype=i16, readonly=ch <= 8))
+                             "51-66 RC input pass-through, 7 camera tilt)", ptype=i16))
+    defs.append(ParamDef("RC_OVERRIDE_TIME", -1.0, 120.0, "s", "RC_CHANNELS_OVERRIDE expires after this "
+                         "(-1 never); pass-through outputs go neutral"))
     return defs
 
+
+RCIN_PASSTHROUGH = range(59, 67)
+"""SERVOn_FUNCTION values RCIN9…RCIN16: the output passes RC input 9–16 through."""
 
 ARDUSUB_DEFS: tuple[ParamDef, ...] = tuple(_ardusub_defs())
 """ArduSub's names, types and meanings; the values (ArduSub's defaults) are in configs/firmware/params.yaml."""
@@ -186,6 +198,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_CONV", 1e-4, 10.0, "m", "converged when position 1-sigma is below this"),
     # Pilot, modes and failsafes (ArduSub names where ArduSub has the parameter)
     ParamDef("WK_PILOT_TMO", 0.1, 10.0, "s", "pilot input older than this is treated as neutral"),
+    ParamDef("WK_OUT_DELAY", 0, 5, "", "ticks between a command and its effect (companion: 1); the EKF and "
+             "the controller account for the commands in flight", ptype="INT8"),
     ParamDef("WK_CLIMB_RATE", 0.01, 2.0, "m/s", "ALT_HOLD depth-target rate at full throttle stick"),
     ParamDef("WK_SURF_RATE", 0.01, 2.0, "m/s", "SURFACE mode ascent rate of the depth target"),
     ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),

@@ -4,7 +4,7 @@ Issue #11: the paper's law predicts the load on a vehicle *holding station*;
 when a wave group carries the vehicle with the water it predicts a Munk
 moment the vehicle does not feel, larger than the pitch authority, and tips
 it. The robust law must not, in a focused 4.5 m crest over the station
-(configs/sea/W2F.yaml, constrained NewWave), and must do no worse than C-PD.
+(configs/sea/design/W2F.yaml, constrained NewWave), and must do no worse than C-PD.
 """
 from __future__ import annotations
 
@@ -71,6 +71,18 @@ def test_robust_law_sees_no_moment_on_a_vehicle_carried_by_the_water():
     assert wave_part.tau_e_hat[2] == pytest.approx(-(p.Z_wdot - p.X_udot) * u_p * w_p, rel=1e-12)
 
 
+def test_robust_law_bounds_the_velocity_between_holding_station_and_the_water():
+    """An estimate faster than the water counts as moving with it; one against the water as holding station."""
+    u_p, w_p = 0.5, -0.3
+    law = lambda: ff_law(1, WK_FF_LIM_X=2.0, WK_FF_LIM_Z=2.0, WK_FF_LIM_P=2.0)  # noqa: E731
+    flow = uniform_flow(u_p, w_p)
+    too_fast = law().update(flow, np.array([0.0, 5.0, 0.0, 2.0, -1.0, 0.0])).tau_e_hat
+    with_water = law().update(flow, np.array([0.0, 5.0, 0.0, u_p, w_p, 0.0])).tau_e_hat
+    np.testing.assert_allclose(too_fast, with_water, rtol=1e-12, atol=1e-12)
+    against = law().update(flow, np.array([0.0, 5.0, 0.0, -1.0, 1.0, 0.0])).tau_e_hat
+    np.testing.assert_allclose(against, ff_law(0).update(flow, np.zeros(6)).tau_e_hat, rtol=1e-12)
+
+
 def test_robust_law_limits_its_authority_per_axis():
     """A flow whose load exceeds WK_FF_LIM_*·τ_max is clipped there; the prediction itself is not."""
     law = ff_law(1, WK_FF_LIM_X=0.5, WK_FF_LIM_Z=0.25, WK_FF_LIM_P=0.1)
@@ -104,9 +116,9 @@ def test_monitor_fades_an_axis_whose_prediction_the_motion_contradicts():
 @pytest.fixture(scope="module")
 def focused_runs():
     """W2 with a 4.5 m crest over the station at t = 60 s: C-PD, paper FF, robust FF (90 s each)."""
-    sea = Sea.load("W2F")
+    sea = Sea.load("design/W2F")
     assert float(sea.elevation(0.0, 60.0)) == pytest.approx(4.5, abs=1e-9)
-    spec = dict(case="W2F", duration=90.0)
+    spec = dict(case="design/W2F", duration=90.0)
     return {"cpd": run_mission(RunSpec(controller="cpd", **spec)).results,
             "paper": run_mission(RunSpec(controller="cpd_ff", overrides={"WK_FF_MODE": 0}, **spec)).results,
             "robust": run_mission(RunSpec(controller="cpd_ff", **spec)).results}

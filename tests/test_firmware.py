@@ -252,7 +252,8 @@ def test_parameter_set_accepts_exactly_the_allowed_values(name, value):
     old = table[name]
     why = table.set(name, value)
     ok = (np.isfinite(float(value)) and d.lo <= float(value) <= d.hi
-          and (not d.integer or float(value).is_integer()))
+          and (not d.integer or float(value).is_integer())
+          and (d.allowed is None or float(value) in d.allowed))
     if ok:
         assert why is None and table[name] == float(value)
     else:

@@ -130,7 +130,8 @@ class Dispatcher:
         self.fw.gcs_heartbeat()            # ArduSub: pilot input counts as the GCS being there
 
     def on_rc_override(self, ep: int, msg) -> None:
-        """RC_CHANNELS_OVERRIDE in ArduSub's order: 1 pitch, 3 throttle, 5 forward (65535: keep, 0: release)."""
+        """RC_CHANNELS_OVERRIDE in ArduSub's order: 1 pitch, 3 throttle, 5 forward (65535: keep, 0: release);
+        9–16 feed outputs whose SERVOn_FUNCTION is RCIN9–16 (0 / 65535: keep, 65534: release)."""
         if not self._from_gcs(msg):
             return self.link.ignored()
         rc = self.link.state.rc
@@ -140,6 +141,12 @@ class Dispatcher:
             if v == UINT16_MAX:
                 continue
             rc[i] = RC_NEUTRAL if v == 0 else min(RC_NEUTRAL + RC_RANGE, max(RC_NEUTRAL - RC_RANGE, v))
+        for ch in range(9, 17):       # MAVLink 2 extensions: 0 / UINT16_MAX ignore, UINT16_MAX - 1 releases
+            v = getattr(msg, f"chan{ch}_raw", 0)
+            if v == UINT16_MAX - 1:
+                self.fw.rc_override_aux(ch, None)
+            elif v not in (0, UINT16_MAX):
+                self.fw.rc_override_aux(ch, int(v))
         norm = lambda ch: (rc[ch] - RC_NEUTRAL) / RC_RANGE   # noqa: E731
         self.link.joystick.touched()
         self.fw.pilot_input(norm(4), norm(2), norm(0))

@@ -36,6 +36,7 @@ from ..telemetry_snapshot import TelemetrySnapshot
 from .battery import BatterySim
 from .commands import Dispatcher
 from .ftp import FtpResponder
+from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
@@ -79,7 +80,7 @@ class MavlinkLink:
 
     def __init__(self, firmware, endpoints: list[str] | None = None, signing_key: bytes | None = None, *,
                  scheduler=None, inbox_size: int = 1000, outbox_size: int = 2000, max_per_update: int = 200,
-                 budget_s: float = 0.004):
+                 budget_s: float = 0.004, lockstep: bool = False):
         self.fw = firmware
         self.counters: dict[str, int] = dict.fromkeys(COUNTERS, 0)
         self.endpoints: list[Transport] = [make_transport(url, i, self.counters) for i, url in enumerate(
@@ -121,6 +122,7 @@ class MavlinkLink:
         self.ftp = FtpResponder(self)
         self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages,
                                                **self.missions.messages, **self.ftp.messages}
+        self.lockstep = CompanionLockstep(self) if lockstep else None   # SITL: wait for a companion each tick
         self._open_endpoints()
 
     def _open_endpoints(self) -> None:
@@ -248,6 +250,20 @@ class MavlinkLink:
         self.state.sysid = self.sysid
         self.snapshot = snap = self.fw.telemetry_snapshot()
         self._vehicle_state(snap)
+        self._drain()
+        self._send_events()
+        self.param_protocol.send_batches()
+        self.missions.update()
+        self.state.mission_seq, self.state.mission_total = self.missions.current, self.missions.count
+        self._send_streams(slot_ns)
+        if self.lockstep is not None and self.lockstep.after_streams(snap.t):
+            self._drain()                  # the companion's commands for the next control tick
+            self._send_events()
+        if self._outbox:
+            self._wake()
+
+    def _drain(self) -> None:
+        """Handle inbox messages, at most ``max_per_update`` and about ``budget_s``."""
         inbox, handlers = self._inbox, self._handlers
         deadline = time.perf_counter_ns() + self.budget_ns
         n = 0
@@ -263,13 +279,6 @@ class MavlinkLink:
                 self.last_error = f"{msg.get_type()}: {exc!r}"
             if self.fw.events:
                 self._send_events()
-        self._send_events()
-        self.param_protocol.send_batches()
-        self.missions.update()
-        self.state.mission_seq, self.state.mission_total = self.missions.current, self.missions.count
-        self._send_streams(slot_ns)
-        if self._outbox:
-            self._wake()
 
     def _vehicle_state(self, snap: TelemetrySnapshot) -> None:
         """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples."""
@@ -404,6 +413,8 @@ class MavlinkLink:
                 c["rx_bad"] += 1
             return
         c["rx"] += 1
+        if mid == ID["NAMED_VALUE_INT"] and self.lockstep is not None and self.lockstep.is_marker(m):
+            return
         if mid not in self._handlers:
             c["rx_unsupported"] += 1
             return

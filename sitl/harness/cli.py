@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-DELEGATED = {"plant": "sitl.physics_server", "firmware": "firmware_py.app"}
+DELEGATED = {"plant": "sitl.physics_server", "firmware": "firmware_py.app", "companion": "firmware_py.companion.app"}
 """Subcommands that are programs of their own (separate processes in ``wavekeep sim``)."""
 
 

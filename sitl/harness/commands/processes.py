@@ -40,6 +40,10 @@ def add_parsers(sub) -> None:
     p.add_argument("--plant-port", type=o.port, default=9002, help="UDP port of the plant's JSON SITL server")
     p.add_argument("--gcs-port", type=o.port, default=14550, help="UDP port the launcher (as GCS) listens on")
     p.add_argument("--zenoh-port", type=o.port, default=7447, help="TCP port of the zenoh router")
+    p.add_argument("--companion", nargs="?", const="rc", choices=("rc", "servo"), default=None,
+                   help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
+                        "ArduSub (docs/companion.md)")
+    p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
     o.add_out(p, required=False, default="runs/sim")
     p.set_defaults(func=cmd_sim)
 
@@ -65,7 +69,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=args.plant_port,
                      gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
     try:
-        r = launch(opt, progress=None)
+        if args.companion:
+            from ..companion_launch import launch_companion
+            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+        else:
+            r = launch(opt, progress=None)
     except LaunchError as exc:
         print(f"wavekeep sim: {exc}", file=sys.stderr)
         return exc.status

@@ -1,0 +1,251 @@
+"""``wavekeep companion``: the Wavekeep control task on a companion computer, flying through ArduSub.
+
+    wavekeep companion --autopilot udpin:127.0.0.1:14770 [--forecast zenoh] [--method rc|servo]
+
+On a BlueROV2 the autopilot endpoint is BlueOS's MAVLink router (add a UDP
+client endpoint to this computer's port, e.g. ``udpin:0.0.0.0:14770``); the
+default binds loopback only. Start-up: the autopilot's identity (a Sub running
+ArduPilot at ``--target-system``, FRAME_CONFIG 2 — the Heavy), the method's
+parameters (servo: SERVO1-8_FUNCTION = RCIN9-16), the stream rates
+(SET_MESSAGE_INTERVAL: ATTITUDE, SCALED_PRESSURE2, LOCAL_POSITION_NED and
+HEARTBEAT at the loop rate), the clock (TIMESYNC; or the stand-in's lockstep
+markers with ``--lockstep``), the forecast; then "ready" and the 20 Hz loop
+until SIGINT/SIGTERM, which releases the overrides. Exit status 3: the vehicle
+was refused. See ``docs/companion.md``.
+"""
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+__all__ = ["main"]
+
+STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
+
+
+def _parse_set(text: str) -> tuple[str, float]:
+    name, _sep, value = text.partition("=")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--set expects NAME=NUMBER, got {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="wavekeep companion", description=__doc__.split("\n")[0])
+    p.add_argument("--autopilot", default="udpin:127.0.0.1:14770",
+                   help="MAVLink endpoint of the autopilot (a real vehicle: the BlueOS router's, e.g. "
+                        "udpin:0.0.0.0:14770)")
+    p.add_argument("--method", choices=("rc", "servo"), default="rc")
+    p.add_argument("--forecast", choices=("none", "zenoh"), default="none",
+                   help="zenoh: the wave feed-forward from the forecast service; none: C-PD only")
+    p.add_argument("--stick-model", choices=("auto", "ardusub", "wavekeep"), default="auto",
+                   help="rc: how the autopilot turns sticks into thrust (auto: wavekeep if it has WK_TAU_MAX_X)")
+    p.add_argument("--target-system", type=int, default=1)
+    p.add_argument("--sysid", type=int, default=255, help="our system id: the autopilot's SYSID_MYGCS")
+    p.add_argument("--compid", type=int, default=191, help="our component id (MAV_COMP_ID_ONBOARD_COMPUTER)")
+    p.add_argument("--lockstep", action="store_true", help="SITL: tick on the stand-in's LOCKSTEP markers")
+    p.add_argument("--stale", type=float, default=0.5, help="s without ATTITUDE before the overrides are released")
+    p.add_argument("--surface-pressure", type=float, default=101325.0, help="Pa at the surface (depth zero)")
+    p.add_argument("--water-density", type=float, default=1025.0, help="kg/m³")
+    p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
+    p.add_argument("--params", default="params")
+    p.add_argument("--vehicle", default="bluerov2_heavy")
+    p.add_argument("--mission", default="station_keeping", help="the station (its setpoint) and the loop rate")
+    p.add_argument("--network", default="network")
+    p.add_argument("--site", default=None)
+    p.add_argument("--identity-timeout", type=float, default=10.0)
+    p.add_argument("--log", default=None, help="tick log CSV (t + TICK_COLUMNS) and statistics JSON beside it")
+    return p
+
+
+def _check_vehicle(link, method: str) -> None:
+    """Refuse a vehicle that is not a BlueROV2 Heavy on ArduSub, or not set up for the method."""
+    from .autopilot import VehicleIdentityError
+    link.wait_vehicle()
+    frame = link.read_param("FRAME_CONFIG")
+    if frame is None or int(frame) != 2:
+        raise VehicleIdentityError(f"FRAME_CONFIG is {frame}: this companion flies a BlueROV2 Heavy "
+                                   "(2, Vectored-6DOF)")
+    if method == "servo":
+        for n in range(1, 9):
+            f = link.read_param(f"SERVO{n}_FUNCTION")
+            if f is None or int(f) != 58 + n:
+                raise VehicleIdentityError(f"servo method: SERVO{n}_FUNCTION is {f}, must be {58 + n} "
+                                           f"(RCIN{8 + n}); see docs/companion.md")
+
+
+def _stick_model(args, link, params) -> tuple[str, tuple[float, float, float]]:
+    names = ("WK_TAU_MAX_X", "WK_TAU_MAX_Z", "WK_TAU_MAX_P")
+    if args.method == "servo":
+        return "none", params.axes("WK_TAU_MAX")
+    if args.stick_model in ("auto", "wavekeep"):
+        vals = [link.read_param(n, 2.0) for n in names]
+        if all(v is not None for v in vals):
+            return "wavekeep", tuple(vals)
+        if args.stick_model == "wavekeep":
+            raise RuntimeError("--stick-model wavekeep: the autopilot has no WK_TAU_MAX_* parameters")
+    return "ardusub", params.axes("WK_TAU_MAX")
+
+
+def _request_streams(link, rate: float) -> None:
+    from .autopilot import mavlink
+    for name in STREAMS:
+        result = link.set_message_interval(getattr(mavlink, f"MAVLINK_MSG_ID_{name}"), rate)
+        if result != 0:
+            print(f"wavekeep companion: {name} at {rate:g} Hz: MAV_RESULT {result}", flush=True)
+
+
+def _timesync_offset(link, tries: int = 5) -> int:
+    """Autopilot clock − local monotonic clock (ns) from TIMESYNC; the best of a few round trips."""
+    best: tuple[int, int] | None = None
+    for _ in range(tries):
+        link.state.rtt_ns = None
+        link.timesync()
+        end = time.monotonic() + 0.5
+        while link.state.rtt_ns is None and time.monotonic() < end:
+            link.pump(0.02)
+        if link.state.rtt_ns is not None and (best is None or link.state.rtt_ns < best[0]):
+            best = (link.state.rtt_ns, link.state.offset_ns or 0)
+    if best is None:
+        att = link.state.samples.get("ATTITUDE")
+        if att is None:
+            raise RuntimeError("no TIMESYNC answer and no ATTITUDE: cannot find the autopilot's clock")
+        return att.t_ms * 1_000_000 - int(att.arrived * 1e9)
+    return best[1]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    from .autopilot import AutopilotLink, VehicleIdentityError
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    link = AutopilotLink(args.autopilot, args.target_system, args.sysid, args.compid)
+    try:
+        _check_vehicle(link, args.method)
+    except VehicleIdentityError as exc:
+        print(f"wavekeep companion: refused: {exc}", file=sys.stderr, flush=True)
+        link.statustext(3, "WK: companion refused this vehicle")
+        link.close()
+        return 3
+    try:
+        return _run(args, link, stop)
+    finally:
+        link.close()
+
+
+def _build(args, link, stop):
+    """Parameters, commander, clock, HAL and the Firmware (the same control task as on the vehicle)."""
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.schemas import load_mission_config, load_vehicle_config
+
+    from ..firmware import Firmware
+    from ..params import load_params
+    from .commander import Commander
+    from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL
+    overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
+                 "FS_EKF_ACTION": 0.0}
+    if args.method == "rc":
+        overrides.update(WK_MOT_COMP=0.0, WK_MOT_TC=0.001)   # the autopilot owns the motors (and their lag)
+    params = load_params(args.params, {**overrides, **dict(args.set)})
+    vcfg, mcfg = load_vehicle_config(args.vehicle), load_mission_config(args.mission)
+    layout, curve = ThrusterLayout.from_config(vcfg["thrusters"]), T200Curve.from_config(vcfg["thrusters"])
+    model, tau_max = _stick_model(args, link, params)
+    commander = Commander(link, args.method, model, curve, layout.allocation_matrix(), tau_max, args.stale)
+    rate = mcfg["control_rate"]
+    _request_streams(link, rate)
+    if args.lockstep:
+        clock = LockstepMarkerClock(link, commander.watchdog, stop.is_set)
+    else:
+        clock = AutopilotClock(link, commander.watchdog, _timesync_offset(link))
+    hal = MAVLinkAutopilotHAL(link, commander, clock, args.stale, args.surface_pressure, args.water_density)
+    fw = Firmware.from_configs(hal, params, vcfg, mcfg)
+    commander.fw = fw
+    print(f"wavekeep companion: {args.method} method, stick model {model}, "
+          f"{'lockstep' if args.lockstep else 'real time (TIMESYNC offset %.3f s)' % (clock.offset_ns * 1e-9)}",
+          flush=True)
+    return fw, commander, clock, rate
+
+
+def _run(args, link, stop) -> int:
+    from ..firmware import tick_row
+    from ..scheduler import Task
+    fw, commander, clock, rate = _build(args, link, stop)
+    rows: list[list[float]] = []
+    if args.log:
+        fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
+    session = forecast_link = None
+    if args.forecast == "zenoh":
+        session, forecast_link = _open_forecast(args, fw)
+        while fw.forecast.newest() is None and not stop.is_set():
+            forecast_link.poll()
+            link.pump(0.05)
+    last_hb = [0.0]
+
+    def after(_slot_ns: int) -> None:
+        if args.lockstep:
+            link.lockstep_answer(link.state.marker_ms)
+        if time.monotonic() - last_hb[0] >= 1.0:
+            last_hb[0] = time.monotonic()
+            link.heartbeat()
+    fw.tasks.insert(0, Task("gate", rate, commander.gate))
+    if forecast_link is not None:
+        fw.tasks.insert(0, Task("forecast", rate, forecast_link.poll))
+    fw.tasks.append(Task("companion", rate, after))
+    gc.collect()
+    gc.freeze()
+    print("wavekeep companion: ready", flush=True)
+    try:
+        if args.lockstep:
+            clock.sleep_until(0)      # the first marker: the stand-in's first tick
+            while link.state.marker_ms < 0 and not stop.is_set():
+                link.pump(0.05)
+        fw.rebuild_scheduler(t0_ns=clock.now_ns())
+        fw.scheduler.run(stop=stop.is_set)
+    finally:
+        commander.release("companion exiting")
+        _close(forecast_link, session)
+        _write_stats(args, fw, commander, link, rows)
+    return 0
+
+
+def _open_forecast(args, fw):
+    from bridge.zenoh_net import load_network_config, open_session
+
+    from ..forecast_link import ZenohForecastLink
+    net = load_network_config(args.network)
+    session = open_session(net, "vehicle")
+    return session, ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)
+
+
+def _close(*things) -> None:
+    for thing in things:
+        if thing is not None:
+            (getattr(thing, "stop", None) or thing.close)()
+
+
+def _write_stats(args, fw, commander, link, rows) -> None:
+    import numpy as np
+    lat = np.array(commander.latency_s) * 1e3
+    stats = {**fw.scheduler.stats(), "faults": fw.fault_counts(), "link": link.counters,
+             "telemetry_to_command_ms": ({"p50": float(np.percentile(lat, 50)), "p99": float(np.percentile(lat, 99)),
+                                          "n": int(lat.size)} if lat.size else None),
+             "events": [text for _t, text in commander.events]}
+    print(f"wavekeep companion: stopped after {stats['ticks']} ticks; {stats['telemetry_to_command_ms']}", flush=True)
+    if args.log:
+        from ..firmware import TICK_COLUMNS
+        header = ",".join(["t", *TICK_COLUMNS])
+        np.savetxt(args.log, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), delimiter=",", header=header,
+                   comments="", fmt="%.17g")
+        Path(args.log).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,156 @@
+"""What the companion sends the autopilot, and when it may: the two command methods and the safety rules.
+
+Methods (``docs/companion.md``):
+
+* ``rc`` — RC_CHANNELS_OVERRIDE of ArduSub's pilot channels 1 (pitch),
+  3 (throttle), 5 (forward) in MANUAL; ArduSub's mixer drives the thrusters.
+  The wrench Wavekeep's controller wants is recovered from its mixer's thrusts
+  (τ = B f, the mixer runs without motor-lag compensation: the autopilot owns
+  the motors) and turned into sticks with the autopilot's stick model:
+  ``wavekeep`` (the stand-in: a full stick is ``WK_TAU_MAX_*``, read from the
+  vehicle) or ``ardusub`` (Motors6DOF: each motor's output is linear in PWM,
+  1500 + 400 · Σ factor · stick, so the sticks are the least-squares fit of the
+  motor factors to the mixer's PWM). RC_CHANNELS_OVERRIDE is not scaled by
+  ArduSub's pilot gain (JS_GAIN applies to MANUAL_CONTROL only).
+* ``servo`` — outputs 1–8 set to RCIN9–16 pass-through (SERVOn_FUNCTION = 58 + n):
+  the companion's own mixer and T200 inverse, overriding channels 9–16.
+
+Safety: the companion never arms and never changes mode. It engages only when
+it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed),
+and releases — at once, from the message that told it, so within one tick — on
+any mode change or disarm, on stale telemetry (``stale_s`` of wall time without
+ATTITUDE), and on exit. Releasing is the protocol's: 0 on channels 1–8,
+65534 (UINT16_MAX − 1) on 9–16; 65535 (and 0 on 9–18) leaves a channel alone.
+Every engagement and release is said in a STATUSTEXT. Overrides also expire in
+the autopilot after RC_OVERRIDE_TIME, so a killed companion stops commanding.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .autopilot import MANUAL, SUB_MODES, AutopilotLink
+
+__all__ = ["ARDUSUB_FACTORS", "Commander", "release_channels"]
+
+IGNORE, RELEASE_LOW, RELEASE_HIGH = 65535, 0, 65534
+
+ARDUSUB_FACTORS = np.array([
+    # pitch, throttle, forward (docs/reference.md §3, BlueROV2 Heavy, motors 1-8)
+    [0, 0, -1], [0, 0, -1], [0, 0, 1], [0, 0, 1], [-1, -1, 0], [-1, -1, 0], [1, -1, 0], [1, -1, 0]], dtype=float)
+
+
+def release_channels(method: str) -> list[int]:
+    """The RC_CHANNELS_OVERRIDE that hands the channels a method uses back to the pilot."""
+    if method == "rc":
+        return [RELEASE_LOW, IGNORE, RELEASE_LOW, IGNORE, RELEASE_LOW, IGNORE, IGNORE, IGNORE] + [0] * 10
+    return [IGNORE] * 8 + [RELEASE_HIGH] * 8 + [0, 0]
+
+
+class Commander:
+    """Engagement state and the command path (scheduler thread only)."""
+
+    def __init__(self, link: AutopilotLink, method: str, stick_model: str, curve, allocation: np.ndarray,
+                 tau_max: tuple[float, float, float], stale_s: float = 0.5, log=print):
+        if method not in ("rc", "servo"):
+            raise ValueError(f"method must be rc or servo, got {method!r}")
+        self.link, self.method, self.stick_model = link, method, stick_model
+        self.curve, self.B = curve, np.asarray(allocation, dtype=float)
+        self.tau_max = np.asarray(tau_max, dtype=float)
+        self.factors_pinv = np.linalg.pinv(ARDUSUB_FACTORS)
+        self.stale_s = float(stale_s)
+        self.log = log
+        self.engaged = False
+        self.selected = False           # the pilot armed / selected MANUAL since the companion last released
+        self.sent_any = False
+        self.fw = None                  # the companion's Firmware (set once built)
+        self.events: list[tuple[float, str]] = []
+        self.latency_s: list[float] = []
+        link.on_mode_change = self.on_mode_change
+
+    # ------------------------------------------------------------------ safety
+    def on_mode_change(self, armed: bool, mode: int | None) -> None:
+        """Every HEARTBEAT that changes arming or mode: release at once unless it is still armed in MANUAL."""
+        if armed and mode == MANUAL:
+            self.selected = True
+            self.say(6, "WK: MANUAL armed by pilot: engaging")
+        elif self.engaged or self.selected:
+            why = "disarmed" if not armed else f"pilot selected {SUB_MODES.get(mode or 0, mode)}"
+            self.selected = False
+            self.release(why)
+
+    def gate(self, _slot_ns: int = 0) -> None:
+        """Before each control tick: engage when allowed, release on stale telemetry."""
+        st = self.link.state
+        fresh = self.link.fresh("ATTITUDE", self.stale_s) is not None
+        if self.engaged and not fresh:
+            self.selected = False
+            self.release("stale telemetry")
+        elif not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL:
+            self._engage()
+
+    def watchdog(self) -> None:
+        """Called while waiting for telemetry: stale telemetry releases without waiting for a tick."""
+        if self.engaged and self.link.fresh("ATTITUDE", self.stale_s) is None:
+            self.selected = False
+            self.release("stale telemetry")
+
+    def _engage(self) -> None:
+        fw = self.fw
+        if fw is None or not fw.ekf.initialised:
+            return
+        station = fw.setpoint.copy()
+        fw.request_arm(True, force=True)
+        if fw.request_mode(4) != 0:           # GUIDED: every axis held
+            fw.request_mode(2)                # no position estimate: ALT_HOLD (depth and pitch)
+        fw.setpoint = station
+        self.engaged = True
+        self.say(6, f"WK: engaged ({self.method}), station x {station[0]:.1f} d {station[1]:.1f}")
+
+    def release(self, why: str) -> None:
+        """Hand every channel this method uses back (three times: UDP) and stop commanding."""
+        if not (self.engaged or self.sent_any):
+            return
+        for _ in range(3):
+            self.link.rc_override(release_channels(self.method))
+        was = self.engaged
+        self.engaged, self.sent_any = False, False
+        if self.fw is not None:
+            self.fw.request_arm(False)
+        self.say(4 if was else 6, f"WK: released overrides ({why})")
+
+    def say(self, severity: int, text: str) -> None:
+        self.events.append((time.monotonic(), text))
+        self.log(text)
+        self.link.statustext(severity, text)
+
+    # ------------------------------------------------------------------ commands
+    def output(self, pwm: np.ndarray) -> None:
+        """The HAL's write_pwm: send the mixer's output the chosen way, only while engaged."""
+        if not self.engaged:
+            return
+        self.link.rc_override(self.channels(np.asarray(pwm, dtype=float)))
+        self.sent_any = True
+        att = self.link.state.samples.get("ATTITUDE")
+        if att is not None:
+            self.latency_s.append(time.monotonic() - att.arrived)
+
+    def channels(self, pwm: np.ndarray) -> list[int]:
+        """The RC_CHANNELS_OVERRIDE channel values (18) for the mixer's eight PWMs."""
+        if self.method == "servo":
+            return [IGNORE] * 8 + [int(v) for v in np.clip(np.rint(pwm), 1100, 1900)] + [0, 0]
+        pitch, throttle, forward = self.sticks(pwm)
+        ch = [IGNORE] * 8 + [0] * 10
+        for i, s in ((0, pitch), (2, throttle), (4, forward)):
+            ch[i] = int(np.rint(1500 + 400 * min(1.0, max(-1.0, s))))
+        return ch
+
+    def sticks(self, pwm: np.ndarray) -> tuple[float, float, float]:
+        """(pitch, throttle, forward) sticks in [−1, 1] that make the autopilot give what the mixer wanted."""
+        if self.stick_model == "ardusub":
+            s = self.factors_pinv @ ((pwm - 1500.0) / 400.0)
+            return float(s[0]), float(s[1]), float(s[2])
+        tau = self.B @ self.curve.thrust(pwm)               # [X, Z, M]: Z down (FRD); the throttle is up
+        s = tau / self.tau_max
+        return float(s[2]), float(-s[1]), float(s[0])

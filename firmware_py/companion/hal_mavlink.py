@@ -1,0 +1,108 @@
+"""The companion's HAL: sensors from the autopilot's telemetry, thruster commands as RC overrides.
+
+:class:`MAVLinkAutopilotHAL` gives the Wavekeep control task what a HAL gives it:
+
+* **pitch, pitch rate** — ATTITUDE (pitch, pitchspeed): the autopilot's AHRS;
+* **depth** — SCALED_PRESSURE2 (the Bar30): (p − p_surface) / (ρ g), as ArduSub
+  computes it; without it, LOCAL_POSITION_NED's z (ArduSub's EKF depth);
+* **x** — LOCAL_POSITION_NED, a fix only when a new one has arrived since the
+  last tick. ArduSub has a horizontal position only when a DVL/USBL feeds its
+  EKF; without one the message does not come (or repeats), the companion's EKF
+  predicts x from its model alone, position-holding modes are refused and the
+  companion holds depth and pitch (ALT_HOLD behaviour) rather than surge;
+* ``write_pwm`` — :class:`~firmware_py.companion.commander.Commander.output`.
+
+Readings are stamped with the autopilot's clock (``time_boot_ms``). Two clocks
+drive the scheduler: :class:`LockstepMarkerClock` (SITL stand-in: time is the
+autopilot's, and a tick starts when the autopilot marks its tick's telemetry
+complete) and :class:`AutopilotClock` (a real vehicle: the local monotonic clock
++ the TIMESYNC offset, i.e. the autopilot's boot clock, in real time).
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from ..hal import HAL
+from ..sensors import ATM_PA, G0, RHO_SEAWATER, SensorFrame
+from .autopilot import AutopilotLink
+from .commander import Commander
+
+__all__ = ["AutopilotClock", "LockstepMarkerClock", "MAVLinkAutopilotHAL"]
+
+
+class LockstepMarkerClock:
+    """Autopilot time, moved by the stand-in's LOCKSTEP markers (deterministic; never runs ahead)."""
+
+    simulated = True
+
+    def __init__(self, link: AutopilotLink, watchdog: Callable[[], None], stop: Callable[[], bool]):
+        self.link, self.watchdog, self.stop = link, watchdog, stop
+        self._now = 0
+
+    def now_ns(self) -> int:
+        return self._now
+
+    def sleep_until(self, t_ns: int) -> None:
+        st = self.link.state
+        while st.marker_ms * 1_000_000 < t_ns and not self.stop():
+            self.link.pump(0.05)
+            self.watchdog()
+        self._now = max(self._now, st.marker_ms * 1_000_000, int(t_ns) if self.stop() else 0)
+
+
+class AutopilotClock:
+    """Real time on the autopilot's boot clock: local monotonic + the TIMESYNC offset (fixed at start)."""
+
+    simulated = False
+
+    def __init__(self, link: AutopilotLink, watchdog: Callable[[], None], offset_ns: int):
+        self.link, self.watchdog, self.offset_ns = link, watchdog, int(offset_ns)
+
+    def now_ns(self) -> int:
+        return time.monotonic_ns() + self.offset_ns
+
+    def sleep_until(self, t_ns: int) -> None:
+        while True:
+            left = (t_ns - self.offset_ns - time.monotonic_ns()) * 1e-9
+            if left <= 0:
+                return
+            self.link.pump(min(left, 0.01))
+            self.watchdog()
+
+
+class MAVLinkAutopilotHAL(HAL):
+    """Sensors from ATTITUDE / SCALED_PRESSURE2 / LOCAL_POSITION_NED; PWM out through the commander."""
+
+    def __init__(self, link: AutopilotLink, commander: Commander, clock, stale_s: float = 0.5,
+                 surface_pa: float = ATM_PA, rho: float = RHO_SEAWATER):
+        self.link, self.commander, self.clock = link, commander, clock
+        self.stale_s = float(stale_s)
+        self.surface_pa, self.rho = float(surface_pa), float(rho)
+        self._pos_count = 0
+
+    def depth(self) -> float:
+        sp2 = self.link.fresh("SCALED_PRESSURE2", self.stale_s)
+        if sp2 is not None:
+            return (sp2.values[0] * 100.0 - self.surface_pa) / (self.rho * G0)
+        lp = self.link.fresh("LOCAL_POSITION_NED", self.stale_s)
+        return lp.values[1] if lp is not None else math.nan
+
+    def read_sensors(self) -> SensorFrame:
+        t = self.clock.now_ns() * 1e-9
+        att = self.link.fresh("ATTITUDE", self.stale_s)
+        x = math.nan
+        lp = self.link.fresh("LOCAL_POSITION_NED", self.stale_s)
+        if lp is not None and lp.count != self._pos_count:
+            self._pos_count = lp.count
+            x = lp.values[0]
+        depth = self.depth()
+        if att is None:
+            return SensorFrame(t, math.nan, math.nan, math.nan, math.nan, healthy=False)
+        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=math.isfinite(depth))
+
+    def write_pwm(self, pwm: np.ndarray) -> None:
+        self.commander.output(pwm)

@@ -1,0 +1,157 @@
+"""``wavekeep sim --companion``: the companion flying a stand-in ArduSub, all in lockstep.
+
+The processes: the plant (JSON SITL), the forecast service (C-PD+FF), the
+Wavekeep firmware as "ArduSub" (its own control off: MANUAL, WK_FF_ENABLE=0, no
+forecast; ``--companion-lockstep``; for ``servo`` SERVO1-8_FUNCTION = RCIN9-16)
+and ``wavekeep companion`` (``--lockstep``), which talks to the stand-in over
+its own MAVLink endpoint. The launcher is the pilot's ground station: it arms
+the vehicle in MANUAL, and the companion engages. The time series joins the
+plant's truth with the *companion's* tick log (its estimate, setpoint and
+commands). Same seed, same result.
+
+Pointing the companion at real ArduSub SITL (``sim_vehicle.py -v ArduSub
+--model JSON`` in ``wavekeep plant``) is the same companion command without
+``--lockstep`` (``docs/companion.md``).
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bridge.forecast import derive_seeds, oracle_forecast
+from bridge.schemas import load_mission_config, load_vehicle_config
+from sitl.sea import Sea
+
+from .launcher import LaunchError, SimOptions, _check_port, _Child, _GroundStation, _merge_logs, _wait_ready
+from .progress import ProgressBar
+from .results import RunResult, mission_results
+from .run import write_run
+
+__all__ = ["METHODS", "launch_companion", "stand_in_args"]
+
+METHODS = ("rc", "servo")
+
+
+def stand_in_args(method: str) -> list[str]:
+    """The stand-in ArduSub's settings for a method: its own control off, pass-through outputs for servo."""
+    args = ["--set", "WK_FF_ENABLE=0", "--set", "FS_GCS_ENABLE=0", "--no-forecast", "--companion-lockstep"]
+    if method == "servo":
+        for n in range(1, 9):
+            args += ["--set", f"SERVO{n}_FUNCTION={58 + n}"]
+    return args
+
+
+def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None) -> dict:
+    """Run one mission with the companion flying the stand-in; returns the results document (also in DIR)."""
+    if method not in METHODS:
+        raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
+    spec = opt.spec
+    sea = Sea.load(spec.case, seed=spec.seed)
+    mcfg = load_mission_config(spec.mission)
+    load_vehicle_config(spec.vehicle)
+    duration = mcfg["duration"] if spec.duration is None else float(spec.duration)
+    sp = mcfg["setpoint"]
+    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
+    out = Path(opt.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):
+        _check_port(port, what)
+    if spec.ff:
+        _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
+    children: list[_Child] = []
+    try:
+        _start(opt, method, companion_port, sea.seed, duration, out, children)
+        wall = _fly(opt, duration, f"sim --companion {method} {sea.name} {spec.label}", out, children, progress)
+    except KeyboardInterrupt:
+        raise LaunchError("interrupted", 130) from None
+    finally:
+        statuses = {c.name: c.stop() for c in reversed(children)}
+    rate = mcfg["control_rate"]
+    truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
+    ticks = np.loadtxt(out / "companion_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
+    forecast = None
+    if spec.forecast_source == "oracle":
+        forecast = oracle_forecast(sea.components, spec.snr_db, np.random.default_rng(derive_seeds(sea.seed)[1]))
+    log = _merge_logs(truth, ticks, int(round(duration * rate)) - 1, sea, forecast)
+    stats: dict = {}
+    with contextlib.suppress(OSError):
+        stats = json.loads((out / "companion_ticks.json").read_text())
+    results = mission_results(sea, spec, duration, rate, setpoint, log, stats)
+    results.update({"transport": f"companion ({method}) over MAVLink to a stand-in ArduSub (JSON SITL, zenoh)",
+                    "companion": {"method": method, "telemetry_to_command_ms": stats.get("telemetry_to_command_ms"),
+                                  "link": stats.get("link"), "events": stats.get("events")},
+                    "speedup": opt.speedup, "wall_time_s": wall,
+                    "speed_x_realtime": duration / wall if wall > 0 else None, "processes": statuses})
+    write_run(RunResult(results, log), out)
+    return results
+
+
+def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duration: float, out: Path,
+           children: list[_Child]) -> None:
+    spec = opt.spec
+    env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    netcfg = out / "network.yaml"
+    netcfg.write_text(json.dumps({"site": "sim", "zenoh": {
+        "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],
+        "connect": [f"tcp/127.0.0.1:{opt.zenoh_port}"], "multicast_scouting": False,
+        "gossip_scouting": True, "scouting_delay_ms": 0}}))
+    cli = [sys.executable, "-m", "sitl.harness.cli"]
+    configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
+    if spec.ff:
+        fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
+              "--network", str(netcfg), "--horizon", str(duration + 60.0)]
+        if spec.snr_db is not None:
+            fc += ["--snr-db", str(spec.snr_db)]
+        children.append(_Child("forecast", fc, out / "forecast.log", env))
+        _wait_ready(children, opt.ready_timeout_s)
+    plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
+             "--log", str(out / "plant_truth.csv")]
+    if spec.ff:
+        plant += ["--buoy-network", str(netcfg)]
+    children.append(_Child("plant", plant, out / "plant.log", env))
+    _wait_ready(children, opt.ready_timeout_s)
+    ardusub = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}", "--seed", str(seed), *configs,
+               "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--mavlink", f"udpout:127.0.0.1:{companion_port}",
+               "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--speedup", str(opt.speedup or 0),
+               *stand_in_args(method), *[a for s in opt.extra_params for a in ("--set", s)]]
+    children.append(_Child("ardusub", ardusub, out / "ardusub.log", env))
+    _wait_ready(children, opt.ready_timeout_s)
+    companion = [*cli, "companion", "--autopilot", f"udpin:127.0.0.1:{companion_port}", "--lockstep",
+                 "--method", method, *configs, "--log", str(out / "companion_ticks.csv")]
+    if spec.ff:
+        companion += ["--forecast", "zenoh", "--network", str(netcfg)]
+    for name, value in spec.overrides.items():
+        companion += ["--set", f"{name}={value!r}"]
+    children.append(_Child("companion", companion, out / "companion.log", env))
+    _wait_ready(children, opt.ready_timeout_s)
+
+
+def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[_Child], progress) -> float:
+    """The pilot: arm in MANUAL (the boot mode), let the companion fly to the end of the mission, disarm."""
+    gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
+    mav = gcs.mavlink
+    try:
+        gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
+        time.sleep(0.2)
+        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        t_wall0 = time.monotonic()
+        end_ms = int(round(duration * 1000))
+        with ProgressBar(duration, title, enabled=progress) as bar:
+            def mission_over(m) -> bool:
+                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
+                    bar.update(m.time_boot_ms / 1000.0)
+                    return bool(m.time_boot_ms >= end_ms)
+                return False
+            gcs.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
+        wall = time.monotonic() - t_wall0
+        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+        return wall
+    finally:
+        gcs.close()
