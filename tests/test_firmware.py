@@ -22,7 +22,8 @@ COL = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
 
 # Perfect sensing: no sensor noise, the estimator told so, a position fix every tick
 PERFECT_SENSORS = dict(SIM_POS_RND=0.0, SIM_DEPTH_RND=0.0, SIM_PITCH_RND=0.0, SIM_GYRO_RND=0.0, SIM_POS_RATE=20.0,
-                       WK_EKF_R_POS=1e-3, WK_EKF_R_DEPTH=1e-3, WK_EKF_R_PITCH=1e-4, WK_EKF_R_GYRO=1e-4)
+                       WK_EKF_R_POS=1e-3, WK_EKF_R_DEPTH=1e-3, WK_EKF_R_PITCH=1e-4, WK_EKF_R_GYRO=1e-4,
+                       SIM_DVL_RND=0.0, SIM_DVL_DROP=0.0, SIM_ACC_RND=0.0, WK_EKF_R_DVL=1e-4, WK_EKF_R_ACC=1e-3)
 
 
 @pytest.fixture(scope="module")
