@@ -150,8 +150,9 @@ def _build(args, link, stop):
     from ..params import load_params
     from .commander import Commander
     from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL
+    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF
     overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
-                 "FS_EKF_ACTION": 0.0}
+                 "FS_EKF_ACTION": 0.0, "WK_EKF_MODE": 0.0}
     if args.method == "rc":
         overrides.update(WK_MOT_COMP=0.0, WK_MOT_TC=0.001)   # the autopilot owns the motors (and their lag)
     params = load_params(args.params, {**overrides, **dict(args.set)})
