@@ -32,6 +32,8 @@ import sys
 import threading
 import time
 
+from .params import parse_assignment
+
 __all__ = ["main"]
 
 
@@ -44,11 +46,10 @@ def _parse_hal(text: str) -> tuple[str, int]:
 
 
 def _parse_set(text: str) -> tuple[str, float]:
-    name, _sep, value = text.partition("=")
     try:
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--set expects NAME=NUMBER, got {text!r}") from None
+        return parse_assignment(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"--set {exc}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -9,12 +9,13 @@ load of Eq. 11 predicted from the forecast. Three laws, selected by
   the vehicle *holding station* (ν = 0) at the estimated pose, at the end of
   the control period. When a wave group carries the vehicle with the water
   this predicts the full relative flow: loads the vehicle does not feel, and
-  in pitch a Munk moment (X_u̇ − Z_ẇ) u_p w_p larger than the pitch authority.
-* **1, robust.** The load at the filtered estimated velocity ν̄, as the
-  relative-velocity model says it acts: P(ν̄) = F_h(ν̄, flow) + D(ν̄) ν̄, i.e.
+  in pitch a Munk moment (Z_ẇ − X_u̇) u_p w_p larger than the pitch authority.
+* **1, robust.** The load at the filtered estimated velocity ν̄, its u and w
+  bounded between 0 and the water's velocity (:meth:`WaveFeedForward._bounded`),
+  as the relative-velocity model says it acts: P(ν̄) = F_h(ν̄, flow) + D(ν̄) ν̄, i.e.
   everything hydrodynamic except the vehicle's own still-water damping (which
   the feedback relies on). In pitch that is the strip moment plus the Munk
-  moment of the *relative* velocity (X_u̇ − Z_ẇ)·… ū_r w̄_r, which vanishes
+  moment of the *relative* velocity (Z_ẇ − X_u̇) ū_r w̄_r, which vanishes
   when the vehicle moves with the water. Then a per-axis authority limit
   ``WK_FF_LIM_*``·τ_max, so the feedback keeps headroom, and a consistency
   monitor: the load the EKF's motion reveals, d = M ν̂̇ + C_RB(ν̂) ν̂ + g(η̂)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
-__all__ = ["PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params"]
+__all__ = ["PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params", "parse_assignment"]
 
 
 INT_TYPE_RANGES: dict[str, tuple[int, int]] = {"INT8": (-128, 127), "INT16": (-32768, 32767),
@@ -242,6 +242,17 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("SIM_BATT_HOTEL", 0.0, 500.0, "W", "simulated battery: electronics, camera and lights load"),
     ParamDef("SIM_BATT_RES", 0.0, 1.0, "Ohm", "simulated battery: the pack's internal resistance"),
 ])
+
+
+def parse_assignment(text: str) -> tuple[str, float]:
+    """``NAME=NUMBER`` (a command line's parameter override) as (name, value); ValueError otherwise."""
+    name, sep, value = text.partition("=")
+    try:
+        if not sep or not name.strip():
+            raise ValueError
+        return name.strip(), float(value)
+    except ValueError:
+        raise ValueError(f"expected NAME=NUMBER, got {text!r}") from None
 
 
 class ParameterTable:

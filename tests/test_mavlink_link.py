@@ -244,7 +244,7 @@ def test_unmodified_mavproxy_flies_the_sub(tmp_path):
     port = free_port()
     sim = LiveSim(RunSpec("W1", "cpd_ff"), mavlink=[f"udpout:127.0.0.1:{port}"]).start()
     proc = subprocess.Popen([sys.executable, "-m", "MAVProxy.mavproxy", f"--master=udpin:127.0.0.1:{port}",
-                             "--no-state", "--default-modules=param,mode,arm,cmdlong,misc"],
+                             "--no-state", "--default-modules=param,mode,arm,cmdlong,misc,relay,rc"],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             cwd=tmp_path, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     lines: list[str] = []
@@ -291,6 +291,17 @@ def test_unmodified_mavproxy_flies_the_sub(tmp_path):
             after = do("status SERVO_OUTPUT_RAW", r"SERVO_OUTPUT_RAW \{(.*)\}")[1]
             moved = any(int(p) != 1500 for p in re.findall(r"servo[1-8]_raw : (\d+)", after))
         assert moved, after
+        # Commands a BlueROV2 pilot types, each answered as ArduSub answers them
+        assert do("motortest 1 1 1600 1", r"Got COMMAND_ACK: DO_MOTOR_TEST: (\w+)")[1] == "ACCEPTED"
+        assert do("long DO_SET_SERVO 9 1700", r"Got COMMAND_ACK: DO_SET_SERVO: (\w+)")[1] == "ACCEPTED"
+        do("mode MANUAL", r"MANUAL>")
+        proc.stdin.write("rc 5 1800\n")       # forward stick, as an RC override
+        proc.stdin.flush()
+        end = time.monotonic() + 5
+        while sim.firmware.pilot.surge <= 0.0 and time.monotonic() < end:
+            time.sleep(0.05)
+        assert sim.firmware.pilot.surge > 0.0
+        assert not any("fence breach" in line.lower() for line in lines), "MAVProxy saw a fence"
     finally:
         proc.kill()
         proc.wait(5)

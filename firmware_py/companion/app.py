@@ -24,17 +24,18 @@ import threading
 import time
 from pathlib import Path
 
+from ..params import parse_assignment
+
 __all__ = ["main"]
 
 STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
 
 
 def _parse_set(text: str) -> tuple[str, float]:
-    name, _sep, value = text.partition("=")
     try:
-        return name.strip(), float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--set expects NAME=NUMBER, got {text!r}") from None
+        return parse_assignment(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"--set {exc}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import socket
-import sys
 import time
 from pathlib import Path
 
@@ -29,7 +27,16 @@ from bridge.forecast import derive_seeds, oracle_forecast
 from bridge.schemas import load_mission_config, load_vehicle_config
 from sitl.sea import Sea
 
-from .launcher import LaunchError, SimOptions, _check_port, _Child, _GroundStation, _merge_logs, _wait_ready
+from .launcher import (
+    LaunchError,
+    SimOptions,
+    _check_port,
+    _Child,
+    _GroundStation,
+    _merge_logs,
+    _wait_ready,
+    start_world,
+)
 from .progress import ProgressBar
 from .results import RunResult, mission_results
 from .run import write_run
@@ -96,27 +103,7 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
 def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duration: float, out: Path,
            children: list[_Child]) -> None:
     spec = opt.spec
-    env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
-    netcfg = out / "network.yaml"
-    netcfg.write_text(json.dumps({"site": "sim", "zenoh": {
-        "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],
-        "connect": [f"tcp/127.0.0.1:{opt.zenoh_port}"], "multicast_scouting": False,
-        "gossip_scouting": True, "scouting_delay_ms": 0}}))
-    cli = [sys.executable, "-m", "sitl.harness.cli"]
-    configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
-    if spec.ff:
-        fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--mode", spec.forecast,
-              "--network", str(netcfg), "--horizon", str(duration + 60.0)]
-        if spec.snr_db is not None:
-            fc += ["--snr-db", str(spec.snr_db)]
-        children.append(_Child("forecast", fc, out / "forecast.log", env))
-        _wait_ready(children, opt.ready_timeout_s)
-    plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
-             "--log", str(out / "plant_truth.csv")]
-    if spec.ff:
-        plant += ["--buoy-network", str(netcfg)]
-    children.append(_Child("plant", plant, out / "plant.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    cli, configs, env, netcfg = start_world(opt, seed, duration, out, children)
     ardusub = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}", "--seed", str(seed), *configs,
                "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--mavlink", f"udpout:127.0.0.1:{companion_port}",
                "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--speedup", str(opt.speedup or 0),

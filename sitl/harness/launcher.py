@@ -175,10 +175,13 @@ def launch(opt: SimOptions, progress=None) -> dict:
     return results
 
 
-def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
-                     water_depth: float) -> None:
-    """The forecast service (C-PD+FF only), the plant and the firmware, each waited for until ready
-    (the firmware told the site's ``water_depth`` (m) for its DVL model)."""
+def start_world(opt: SimOptions, seed: int, duration: float, out: Path,
+                children: list[_Child]) -> tuple[list[str], list[str], dict[str, str], Path]:
+    """The forecast service (C-PD+FF only) and the plant, each waited for until ready.
+
+    Returns what the vehicle's processes are started with: the CLI prefix, the
+    mission/vehicle options, the environment and the zenoh network config.
+    """
     spec = opt.spec
     # One BLAS thread per process: three processes already share the cores
     env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
@@ -202,6 +205,15 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
         plant += ["--buoy-network", str(netcfg)]
     children.append(_Child("plant", plant, out / "plant.log", env))
     _wait_ready(children, opt.ready_timeout_s)
+    return cli, configs, env, netcfg
+
+
+def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+                     water_depth: float) -> None:
+    """The world (:func:`start_world`), then the firmware, waited for until ready (told the site's
+    ``water_depth`` (m) for its DVL model)."""
+    spec = opt.spec
+    cli, configs, env, netcfg = start_world(opt, seed, duration, out, children)
     firmware = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
                 "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
                 "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
