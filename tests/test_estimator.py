@@ -43,7 +43,8 @@ def test_dvl_beyond_its_range_degrades_gracefully_and_the_failsafe_acts():
     from dataclasses import replace as dc_replace
 
     def velocity_sigma(water_depth: float) -> tuple[float, object]:
-        m = build_mission(RunSpec("W1", "cpd", duration=20.0, overrides={"SIM_WATER_DEPTH": water_depth}),
+        m = build_mission(RunSpec("W1", "cpd", duration=20.0,
+                                  overrides={"SIM_WATER_DEPTH": water_depth, "WK_EKF_MODE": 1}),
                           params=load_params())
         m.firmware.params.set("SIM_WATER_DEPTH", water_depth)
         tick(m)
@@ -71,7 +72,7 @@ def test_dvl_beyond_its_range_degrades_gracefully_and_the_failsafe_acts():
 
 @pytest.fixture(scope="module")
 def w1_run():
-    return run_mission(RunSpec("W1", "cpd", seed=3, duration=60.0))
+    return run_mission(RunSpec("W1", "cpd", seed=3, duration=60.0, overrides={"WK_EKF_MODE": 1}))
 
 
 def test_nees_within_bounds_in_a_short_w1_mission(w1_run):
@@ -84,13 +85,15 @@ def test_nees_within_bounds_in_a_short_w1_mission(w1_run):
 
 
 def test_paper_mode_keeps_todays_estimator():
-    r = run_mission(RunSpec("W1", "cpd", seed=1, duration=10.0, overrides={"WK_EKF_MODE": 0}))
+    r = run_mission(RunSpec("W1", "cpd", seed=1, duration=10.0))        # the default: the paper's estimator
     assert set(r.results["ekf"]["accepted"]) == {"position", "depth", "pitch", "pitch_rate"}
 
 
 def test_dob_feeds_back_the_estimated_disturbance():
     m = build_mission(RunSpec("W2", "cpd_dob", duration=10.0), params=load_params())
-    assert m.firmware.params["WK_DOB_ENABLE"] == 1
+    assert m.firmware.params["WK_DOB_ENABLE"] == 1 and m.firmware.params["WK_EKF_MODE"] == 1
+    with pytest.raises(ValueError, match="aided estimator"):
+        RunSpec("W2", "cpd_dob", overrides={"WK_EKF_MODE": 0})
     tick(m)
     m.firmware.request_mode(Mode.GUIDED)
     m.firmware.request_arm(True)

@@ -218,8 +218,8 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
                 "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
                 "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
     firmware += ["--speedup", str(opt.speedup or 0)]      # explicit: 0 is unpaced (the default with --mavlink is 1)
-    firmware += ["--set", f"WK_FF_ENABLE={1 if spec.ff else 0}", "--set", f"WK_DOB_ENABLE={1 if spec.dob else 0}",
-                 "--set", f"SIM_WATER_DEPTH={water_depth!r}"]
+    firmware += [a for name, value in spec.implied_params().items() for a in ("--set", f"{name}={value!r}")]
+    firmware += ["--set", f"SIM_WATER_DEPTH={water_depth!r}"]
     # The launcher's heartbeats run on the wall clock; the firmware's failsafe timer on simulated
     # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
     # (a result must not depend on how fast the machine is).

@@ -88,8 +88,8 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
         why = params.set(name, value)
         if why:
             raise ValueError(f"parameter override {name}={value!r}: {why}")
-    params.set("WK_FF_ENABLE", 1 if spec.ff else 0)
-    params.set("WK_DOB_ENABLE", 1 if spec.dob else 0)
+    for name, value in spec.implied_params().items():
+        params.set(name, value)
     params.set("SIM_WATER_DEPTH", sea.water_depth)    # the site's depth reaches the DVL model as a SIM_ parameter
     rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]

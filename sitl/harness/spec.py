@@ -57,11 +57,21 @@ class RunSpec:
         if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
             raise ValueError(f"duration must be a positive number of seconds, got {self.duration}")
         object.__setattr__(self, "overrides", dict(self.overrides))
+        if self.dob and self.overrides.get("WK_EKF_MODE", 1) != 1:
+            raise ValueError("a disturbance observer needs the aided estimator's disturbance states (WK_EKF_MODE 1)")
 
     @property
     def ff(self) -> bool:
         """Does the firmware run the wave feed-forward?"""
         return self.controller in ("cpd_ff", "cpd_ff_dob")
+
+    def implied_params(self) -> dict[str, float]:
+        """The firmware parameters the controller choice sets, on top of the overrides: FF and DOB on or
+        off, and the aided estimator, whose disturbance states a disturbance observer feeds back."""
+        implied = {"WK_FF_ENABLE": float(self.ff), "WK_DOB_ENABLE": float(self.dob)}
+        if self.dob:
+            implied["WK_EKF_MODE"] = 1.0
+        return implied
 
     @property
     def dob(self) -> bool:
