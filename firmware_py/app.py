@@ -45,7 +45,8 @@ def _parse_hal(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
-def _parse_set(text: str) -> tuple[str, float]:
+def parse_set_arg(text: str) -> tuple[str, float]:
+    """argparse type of ``--set NAME=NUMBER``."""
     try:
         return parse_assignment(text)
     except ValueError as exc:
@@ -60,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pace at X times real time; 0: lockstep, unpaced. Default: 1 (real time) when --mavlink "
                         "is given (a ground station is flying it), else 0")
     p.add_argument("--seed", type=int, default=0, help="run seed (sensor noise stream)")
-    p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
+    p.add_argument("--set", type=parse_set_arg, action="append", default=[], help="parameter override NAME=VALUE")
     p.add_argument("--params", default="params", help="parameter defaults (configs/firmware/NAME.yaml or a path)")
     p.add_argument("--vehicle", default="bluerov2_heavy")
     p.add_argument("--mission", default="station_keeping", help="the station the vehicle keeps (its setpoint)")

@@ -24,18 +24,11 @@ import threading
 import time
 from pathlib import Path
 
-from ..params import parse_assignment
+from ..app import parse_set_arg
 
 __all__ = ["main"]
 
 STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
-
-
-def _parse_set(text: str) -> tuple[str, float]:
-    try:
-        return parse_assignment(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"--set {exc}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stale", type=float, default=0.5, help="s without ATTITUDE before the overrides are released")
     p.add_argument("--surface-pressure", type=float, default=101325.0, help="Pa at the surface (depth zero)")
     p.add_argument("--water-density", type=float, default=1025.0, help="kg/m³")
-    p.add_argument("--set", type=_parse_set, action="append", default=[], help="parameter override NAME=VALUE")
+    p.add_argument("--set", type=parse_set_arg, action="append", default=[], help="parameter override NAME=VALUE")
     p.add_argument("--params", default="params")
     p.add_argument("--vehicle", default="bluerov2_heavy")
     p.add_argument("--mission", default="station_keeping", help="the station (its setpoint) and the loop rate")

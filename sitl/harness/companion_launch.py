@@ -37,7 +37,6 @@ from .launcher import (
     _wait_ready,
     start_world,
 )
-from .progress import ProgressBar
 from .results import RunResult, mission_results
 from .run import write_run
 
@@ -123,22 +122,9 @@ def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duratio
 def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[_Child], progress) -> float:
     """The pilot: arm in MANUAL (the boot mode), let the companion fly to the end of the mission, disarm."""
     gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
-    mav = gcs.mavlink
     try:
         gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
         time.sleep(0.2)
-        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        t_wall0 = time.monotonic()
-        end_ms = int(round(duration * 1000))
-        with ProgressBar(duration, title, enabled=progress) as bar:
-            def mission_over(m) -> bool:
-                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
-                    bar.update(m.time_boot_ms / 1000.0)
-                    return bool(m.time_boot_ms >= end_ms)
-                return False
-            gcs.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
-        wall = time.monotonic() - t_wall0
-        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
-        return wall
+        return gcs.fly_armed(duration, title, progress)
     finally:
         gcs.close()

@@ -290,6 +290,22 @@ class _GroundStation:
         if ack.result != 0:
             raise LaunchError(f"the vehicle refused command {cmd} (MAV_RESULT {ack.result})")
 
+    def fly_armed(self, duration: float, title: str, progress) -> float:
+        """Arm, follow the vehicle's clock to ``duration`` s (progress shown), disarm; the wall time it took."""
+        self.command(self.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        t_wall0 = time.monotonic()
+        end_ms = int(round(duration * 1000))
+        with ProgressBar(duration, title, enabled=progress) as bar:
+            def mission_over(m) -> bool:
+                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
+                    bar.update(m.time_boot_ms / 1000.0)
+                    return bool(m.time_boot_ms >= end_ms)
+                return False
+            self.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
+        wall = time.monotonic() - t_wall0
+        self.command(self.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
+        return wall
+
     def close(self) -> None:
         self.conn.close()
         self.tlog.close()
@@ -309,19 +325,7 @@ def _fly(opt: SimOptions, setpoint: np.ndarray, duration: float, title: str, out
         gcs.conn.mav.set_position_target_local_ned_send(0, 1, 1, mav.MAV_FRAME_LOCAL_NED, 0b0000_1111_1111_1000,
                                                         setpoint[0], 0.0, setpoint[1], 0, 0, 0, 0, 0, 0, 0, 0)
         time.sleep(0.2)
-        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        t_wall0 = time.monotonic()
-        end_ms = int(round(duration * 1000))
-        with ProgressBar(duration, title, enabled=progress) as bar:
-            def mission_over(m) -> bool:
-                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
-                    bar.update(m.time_boot_ms / 1000.0)
-                    return bool(m.time_boot_ms >= end_ms)
-                return False
-            gcs.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
-        wall = time.monotonic() - t_wall0
-        gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
-        return wall
+        return gcs.fly_armed(duration, title, progress)
     finally:
         gcs.close()
 
