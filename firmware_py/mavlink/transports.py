@@ -15,6 +15,7 @@ import contextlib
 import errno
 import socket
 import time
+from abc import ABC, abstractmethod
 from collections import OrderedDict
 from collections.abc import Callable, MutableMapping
 
@@ -34,7 +35,7 @@ def _reset_parser(mav: mavlink.MAVLink) -> None:
     mav.have_prefix_error = False
 
 
-class Transport:
+class Transport(ABC):
     """What every endpoint kind provides to the link.
 
     Parameters
@@ -65,39 +66,39 @@ class Transport:
         if self.mav is not None:
             _reset_parser(self.mav)
 
+    @abstractmethod
     def open(self) -> None:
         """Open the socket(s); raises OSError (e.g. a port in use)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def close(self) -> None:
         """Close every socket. Idempotent."""
-        raise NotImplementedError
 
+    @abstractmethod
     def read_sockets(self) -> list[socket.socket]:
         """Sockets to wait on for reading."""
-        raise NotImplementedError
 
     def write_sockets(self) -> list[socket.socket]:
         """Sockets with queued bytes to wait on for writing (TCP only)."""
         return []
 
+    @abstractmethod
     def on_readable(self, sock: socket.socket, feed: Feed) -> None:
         """Read what ``sock`` holds and hand it to ``feed``."""
-        raise NotImplementedError
 
-    def on_writable(self, sock: socket.socket) -> None:
+    def on_writable(self, sock: socket.socket) -> None:  # noqa: B027 (a hook: only TCP has queued bytes)
         """Write queued bytes (TCP only)."""
 
-    def housekeeping(self, now: float) -> None:
+    def housekeeping(self, now: float) -> None:  # noqa: B027 (a hook: most transports have none)
         """Once a second (monotonic s): reconnect, expire peers."""
 
+    @abstractmethod
     def can_send(self) -> bool:
         """True when a message sent now has somewhere to go."""
-        raise NotImplementedError
 
+    @abstractmethod
     def send(self, buf: bytes) -> bool:
         """Send one packed frame; False if it could not be sent (counted)."""
-        raise NotImplementedError
 
 
 def _close(*socks: socket.socket | None) -> None:
@@ -202,20 +203,20 @@ class UdpIn(_Udp):
         return ok
 
 
-class _Tcp(Transport):
+class _Tcp(Transport, ABC):
     """A TCP byte stream with a bounded queue of bytes the peer has not taken yet."""
 
     def __init__(self, *args, **kw):
         super().__init__(*args, **kw)
         self.pending = bytearray()
 
+    @abstractmethod
     def stream(self) -> socket.socket | None:
         """The connected socket, if any."""
-        raise NotImplementedError
 
+    @abstractmethod
     def drop_stream(self) -> None:
         """Close the connection (the peer left or failed)."""
-        raise NotImplementedError
 
     def can_send(self) -> bool:
         return self.stream() is not None
