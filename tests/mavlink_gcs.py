@@ -225,3 +225,12 @@ def frame(msg, seq: int = 0) -> bytes:
     mav = mavlink.MAVLink(None, 255, 190)
     mav.seq = seq
     return bytes(msg.pack(mav))
+
+
+def mavproxy_available() -> bool:
+    """Is MAVProxy installed (the Makefile's test extra installs it headless)?"""
+    try:
+        import MAVProxy  # noqa: F401
+    except ImportError:
+        return False
+    return True

@@ -13,7 +13,7 @@ import pytest
 
 os.environ["MAVLINK20"] = "1"
 # fixtures, one live vehicle per module
-from mavlink_gcs import free_port
+from mavlink_gcs import free_port, mavproxy_available
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.mavlink.ftp import ERR, OP
@@ -70,16 +70,8 @@ def test_ftp_replies_and_garbage_are_survived(v):
     assert link.counters["handler_errors"] == before["handler_errors"] and link.alive
 
 
-def _mavproxy_available() -> bool:
-    try:
-        import MAVProxy  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 @pytest.mark.processes
-@pytest.mark.skipif(not _mavproxy_available(), reason="MAVProxy not installed")
+@pytest.mark.skipif(not mavproxy_available(), reason="MAVProxy not installed")
 def test_mavproxy_with_ftp_falls_back_to_the_parameter_protocol(tmp_path):
     """MAVProxy's param module tries MAVFTP first; the NAK sends it to PARAM_REQUEST_LIST with no stall."""
     port = free_port()

@@ -15,7 +15,7 @@ import pytest
 
 os.environ["MAVLINK20"] = "1"
 # fixtures, one live vehicle per module
-from mavlink_gcs import GroundStation, frame, free_port
+from mavlink_gcs import GroundStation, frame, free_port, mavproxy_available
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -227,16 +227,8 @@ def test_signing_rejects_unsigned_and_wrongly_signed_commands():
 
 # --------------------------------------------------------------------------- MAVProxy acceptance
 
-def _mavproxy_available() -> bool:
-    try:
-        import MAVProxy  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
 @pytest.mark.processes
-@pytest.mark.skipif(not _mavproxy_available(),
+@pytest.mark.skipif(not mavproxy_available(),
                     reason="MAVProxy not installed (pip install --no-deps MAVProxy pyserial)")
 def test_unmodified_mavproxy_flies_the_sub(tmp_path):
     """Headless MAVProxy: sees a Sub with ArduSub's mode names, switches to POSHOLD, arms, lists and sets

@@ -24,8 +24,6 @@ from pathlib import Path
 import numpy as np
 
 from bridge.forecast import derive_seeds, oracle_forecast
-from bridge.schemas import load_mission_config, load_vehicle_config
-from sitl.sea import Sea
 
 from .launcher import (
     LaunchError,
@@ -35,6 +33,7 @@ from .launcher import (
     _GroundStation,
     _merge_logs,
     _wait_ready,
+    prepare_run,
     start_world,
 )
 from .results import RunResult, mission_results
@@ -59,14 +58,7 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
     spec = opt.spec
-    sea = Sea.load(spec.case, seed=spec.seed)
-    mcfg = load_mission_config(spec.mission)
-    load_vehicle_config(spec.vehicle)
-    duration = mcfg["duration"] if spec.duration is None else float(spec.duration)
-    sp = mcfg["setpoint"]
-    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
-    out = Path(opt.out)
-    out.mkdir(parents=True, exist_ok=True)
+    sea, mcfg, duration, setpoint, out = prepare_run(opt)
     for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):
         _check_port(port, what)
     if spec.ff:

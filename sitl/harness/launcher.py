@@ -136,17 +136,24 @@ def _wait_ready(children: list[_Child], timeout: float) -> None:
         time.sleep(0.05)
 
 
-def launch(opt: SimOptions, progress=None) -> dict:
-    """Run one mission across processes; returns the results document (also written to DIR)."""
+def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
+    """Validate the run's configs before anything starts: the sea, the mission config, its duration (s),
+    the station [x, depth, θ], and the run folder (created)."""
     spec = opt.spec
-    sea = Sea.load(spec.case, seed=spec.seed)     # validates the case before anything starts
+    sea = Sea.load(spec.case, seed=spec.seed)
     mcfg = load_mission_config(spec.mission)
     load_vehicle_config(spec.vehicle)
     duration = mcfg["duration"] if spec.duration is None else float(spec.duration)
     sp = mcfg["setpoint"]
-    setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
     out = Path(opt.out)
     out.mkdir(parents=True, exist_ok=True)
+    return sea, mcfg, duration, np.array([sp["x"], sp["depth"], sp["pitch"]]), out
+
+
+def launch(opt: SimOptions, progress=None) -> dict:
+    """Run one mission across processes; returns the results document (also written to DIR)."""
+    spec = opt.spec
+    sea, mcfg, duration, setpoint, out = prepare_run(opt)
     _check_port(opt.plant_port, "plant")
     _check_port(opt.gcs_port, "GCS")
     if spec.ff:
