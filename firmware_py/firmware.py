@@ -31,6 +31,7 @@ from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
 from .params import RCIN_PASSTHROUGH, ParameterTable
+from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
@@ -55,6 +56,7 @@ class TickRecord:
     ff_weight: np.ndarray = field(default_factory=lambda: np.ones(3))   # FF monitor's weights [X, Z, M]
     d_hat: np.ndarray = field(default_factory=lambda: np.zeros(3))      # EKF's disturbance estimate [X, Z, M]
     nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
+    target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # saturation preview's [x, z, θ] (m, rad)
 
 
 TICK_COLUMNS = (
@@ -64,7 +66,7 @@ TICK_COLUMNS = (
     + [f"pwm{i}" for i in range(1, 9)]
     + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
     + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
-    + ["nis", "nis_dof"]
+    + ["nis", "nis_dof", "prv_x", "prv_z"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
 
@@ -73,7 +75,7 @@ def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
             float(r.ff_active), *r.ff_weight, float(r.control.saturated), *r.sigma[3:6], *r.d_hat,
-            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1])]
+            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2]]
 
 
 @dataclass(frozen=True)
@@ -120,6 +122,7 @@ class Firmware:
         self.controller = StationKeepingController(params, vehicle)
         self.mixer = MotorMixer(layout, curve, params, self.h)
         self.feedforward = WaveFeedForward(vehicle, params, self.h)
+        self.preview = SaturationPreview(vehicle, params, self.strips, self.h)
         self._ff_faded = False
         self.on_tick = on_tick
         self.last: TickRecord | None = None
@@ -379,11 +382,13 @@ class Firmware:
             flow = None
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
-        control = self.controller.update(self._ahead(t), self.setpoint, ff.tau_ff, self.h, d_hat)
+        target = self.setpoint + self._preview_offset(ff_active, t)
+        control = self.controller.update(self._ahead(t), target, ff.tau_ff, self.h, d_hat)
         mix = self._mix(control, t)
         self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
-                               ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total)
+                               ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total,
+                               target - self.setpoint)
         if self.on_tick is not None:
             self.on_tick(self.last)
 
@@ -415,6 +420,11 @@ class Firmware:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
             ff_active, flow = False, None
         return ff_active, flow, ff
+
+    def _preview_offset(self, ff_active: bool, t: float) -> np.ndarray:
+        """The saturation preview's target offset (robust FF only, docs/feedforward.md); zeros otherwise."""
+        active = self.forecast.current(t) if ff_active and int(self.params["WK_FF_MODE"]) == 1 else None
+        return self.preview.update(None if active is None else active.components, self.ekf.x, self.setpoint, t)
 
     def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
         """The thruster outputs: neutral disarmed, a motor test, or the held axes' control + the pilot's."""

@@ -164,6 +164,15 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "tau_max) at which FF starts to fade; 0 disables the monitor"),
     ParamDef("WK_FF_MON_TC", 0.05, 20.0, "s", "robust FF: monitor filter time constant and weight recovery time"),
     ParamDef("WK_FF_W_MIN", 0.0, 1.0, "", "robust FF: smallest weight the monitor fades an axis to"),
+    ParamDef("WK_PRV_ENABLE", 0, 1, "", "robust FF: saturation preview (pre-position the target ahead of a "
+             "forecast load beyond tau_max) on (1) or off (0)", ptype="INT8"),
+    ParamDef("WK_PRV_HORIZON", 0.5, 20.0, "s", "saturation preview: how far ahead it simulates"),
+    ParamDef("WK_PRV_DT", 0.02, 0.5, "s", "saturation preview: its simulation step"),
+    ParamDef("WK_PRV_PERIOD", 0.05, 5.0, "s", "saturation preview: how often it re-plans"),
+    ParamDef("WK_PRV_THR", 0.0, 5.0, "m", "saturation preview: predicted excursion above which it shifts the target"),
+    ParamDef("WK_PRV_RATE", 0.01, 2.0, "m/s", "saturation preview: slew rate of the target shift"),
+    ParamDef("WK_PRV_MAX_X", 0.0, 2.0, "m", "saturation preview: largest surge target shift"),
+    ParamDef("WK_PRV_MAX_Z", 0.0, 2.0, "m", "saturation preview: largest heave target shift"),
     # Motors and mixer
     ParamDef("WK_THR_MAX", 1.0, 60.0, "N", "per-thruster thrust limit used by the allocation"),
     ParamDef("WK_THR_MIN", 0.0, 5.0, "N", "thrust commands smaller than this are sent as neutral PWM"),

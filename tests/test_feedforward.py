@@ -115,13 +115,15 @@ def test_monitor_fades_an_axis_whose_prediction_the_motion_contradicts():
 
 @pytest.fixture(scope="module")
 def focused_runs():
-    """W2 with a 4.5 m crest over the station at t = 60 s: C-PD, paper FF, robust FF (90 s each)."""
+    """W2 with a 4.5 m crest over the station at t = 60 s: C-PD, paper FF, robust FF with and
+    without the saturation preview (90 s each)."""
     sea = Sea.load("design/W2F")
     assert float(sea.elevation(0.0, 60.0)) == pytest.approx(4.5, abs=1e-9)
     spec = dict(case="design/W2F", duration=90.0)
     return {"cpd": run_mission(RunSpec(controller="cpd", **spec)).results,
             "paper": run_mission(RunSpec(controller="cpd_ff", overrides={"WK_FF_MODE": 0}, **spec)).results,
-            "robust": run_mission(RunSpec(controller="cpd_ff", **spec)).results}
+            "robust": run_mission(RunSpec(controller="cpd_ff", **spec)).results,
+            "no_preview": run_mission(RunSpec(controller="cpd_ff", overrides={"WK_PRV_ENABLE": 0}, **spec)).results}
 
 
 def test_robust_ff_rides_out_the_focused_crest_no_worse_than_cpd(focused_runs):
@@ -136,6 +138,13 @@ def test_paper_ff_tips_the_vehicle_in_the_focused_crest(focused_runs):
     """The failure of issue #11, reproduced: so the test above can fail."""
     assert math.degrees(focused_runs["paper"]["max_abs_error"]["pitch"]) > 20.0
     assert math.degrees(focused_runs["cpd"]["max_abs_error"]["pitch"]) < 20.0
+
+
+def test_saturation_preview_shrinks_the_excursion_the_thrusters_cannot_prevent(focused_runs):
+    """The group's loads exceed τ_max in surge and heave: pre-positioning ahead of it leaves less to give."""
+    with_, without = focused_runs["robust"]["max_abs_error"], focused_runs["no_preview"]["max_abs_error"]
+    assert with_["heave"] < without["heave"] - 0.2
+    assert with_["surge"] < without["surge"]
 
 
 def test_monitor_announces_a_fade_and_logs_its_weight():

@@ -2,8 +2,9 @@
 
 The wave kinematics at a body's strips (:func:`body_flow_arrays`), the
 relative-velocity load (:func:`hydro_load`), the rates of paper Eq. 2
-(:func:`state_rates_arr`), one RK4 step (:func:`rk4_arr`) and the
-estimator's finite-difference Jacobian (:func:`jacobian_arr`) are written
+(:func:`state_rates_arr`), one RK4 step (:func:`rk4_arr`), the
+estimator's finite-difference Jacobian (:func:`jacobian_arr`) and the
+saturation preview's simulation (:func:`preview_worst_arr`) are written
 here once, in loops over plain float arrays, in the same arithmetic order as
 the reference code in :mod:`bridge.models.waves` and
 :mod:`bridge.models.vehicle` (tests assert agreement to 1e-12).
@@ -27,7 +28,8 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "rk4_arr", "state_rates_arr", "warm_up"]
+__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "preview_worst_arr", "rk4_arr",
+           "state_rates_arr", "warm_up"]
 
 
 def _wanted() -> bool:
@@ -208,6 +210,35 @@ def jacobian_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az):  # pragma: no c
     return A
 
 
+@njit(cache=True)
+def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt, step):  # pragma: no cover
+    """:func:`~firmware_py.preview.preview_excursions`'s simulation: largest |e| (C, 2) per candidate.
+
+    ``gains`` (6, 2) rows K_p, K_d, K_v, ν_max, τ_max, FF limit (N) for [X, Z]; the flow arrays
+    are (N, S), one row per step; ``cands`` (C, 2); ``e0``, ``v0``, ``s0`` (2,).
+    """
+    n, nc = up.shape[0], cands.shape[0]
+    mass = (pv[16] + pv[7], pv[18] + pv[8])
+    lin, quad = (pv[10], pv[11]), (pv[13], pv[14])
+    worst = np.empty((nc, 2))
+    for c in range(nc):
+        e = [e0[0], e0[1]]
+        v = [v0[0], v0[1]]
+        s = [s0[0], s0[1]]
+        worst[c, 0], worst[c, 1] = abs(e[0]), abs(e[1])
+        for j in range(n):
+            f = hydro_load(pv, v[0], v[1], 0.0, True, xs, wts, up[j], wp[j], ax[j], az[j])
+            for a in range(2):
+                tau_ff = -min(max(f[a] + (lin[a] + quad[a] * abs(v[a])) * v[a], -gains[5, a]), gains[5, a])
+                v_d = min(max(gains[0, a] * (s[a] - e[a]) - gains[1, a] * v[a], -gains[3, a]), gains[3, a])
+                u_n = min(max(gains[2, a] * (v_d - v[a]) + tau_ff / gains[4, a], -1.0), 1.0)
+                v[a] = v[a] + dt * (f[a] + gains[4, a] * u_n) / mass[a]
+                e[a] = e[a] + dt * v[a]
+                s[a] = s[a] + min(max(cands[c, a] - s[a], -step), step)
+                worst[c, a] = max(worst[c, a], abs(e[a]))
+    return worst
+
+
 _warm = False
 
 
@@ -232,3 +263,5 @@ def warm_up() -> None:
         state_rates_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
         rk4_arr(pv, x, 0.05, tau, has, z1, one, z3, z3, z3, z3)
         jacobian_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
+    z2, g = np.zeros(2), np.ones((6, 2))
+    preview_worst_arr(pv, g, z1, one, z3, z3, z3, z3, np.zeros((1, 2)), z2, z2, z2, 0.1, 0.1)
