@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from pathlib import Path
 
 from . import options as o
 
@@ -24,6 +25,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--duration", type=o.duration, default=None,
                    help="stop after this much simulated time (s); default: until Ctrl-C")
     p.add_argument("--signing-key", default=None, help="file with a 32-byte MAVLink 2 signing key")
+    p.add_argument("--log", default=None, metavar="FILE",
+                   help="where to write the events and the results table (default: runs/live-<UTC time>.log)")
     p.set_defaults(func=cmd_live)
 
     p = sub.add_parser("thrust", help="stream thrust demands to a vehicle at 20 Hz (bench tests)",
@@ -48,7 +51,6 @@ def add_parsers(sub) -> None:
 def cmd_live(args: argparse.Namespace) -> int:
     """The vehicle flying live in one process, with its MAVLink link, until Ctrl-C or --duration."""
     from ..live import LiveSim
-    from ..metrics import format_table
 
     endpoints = [o.endpoint(e, bind=True) for e in (args.mavlink or [DEFAULT_GCS])]
     spec = o.run_spec(args)
@@ -59,14 +61,37 @@ def cmd_live(args: argparse.Namespace) -> int:
             key = load_signing_key(args.signing_key)
         except (OSError, ValueError) as exc:
             raise o.UsageError(f"--signing-key {args.signing_key}: {exc}") from None
+    log_path = Path(args.log or f"runs/live-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.log")
+    try:
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        log = log_path.open("a", encoding="utf-8")
+    except OSError as exc:
+        raise o.UsageError(f"--log {log_path}: cannot write ({exc.strerror})") from None
     t0 = time.monotonic()
 
-    def event(severity: int, text: str) -> None:
-        print(f"[{time.monotonic() - t0:7.1f} s] {text}", flush=True)
+    def say(line: str) -> None:
+        print(line, flush=True)
+        log.write(line + "\n")
+        log.flush()
 
-    sim = LiveSim(spec, mavlink=endpoints, speedup=args.speedup, signing_key=key, on_event=event)
-    print(f"Wavekeep live: {args.case}, {spec.label}, MAVLink on {', '.join(endpoints)}, speed-up {args.speedup:g}. "
-          "Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops.", flush=True)
+    def event(severity: int, text: str) -> None:
+        say(f"[{time.monotonic() - t0:7.1f} s] {text}")
+
+    try:
+        sim = LiveSim(spec, mavlink=endpoints, speedup=args.speedup, signing_key=key, on_event=event)
+        say(f"Wavekeep live: {args.case}, {spec.label}, MAVLink on {', '.join(endpoints)}, speed-up "
+            f"{args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops. "
+            f"Log: {log_path}")
+        _fly(sim, spec.label, args, t0, say)
+    finally:
+        log.close()
+    return 0
+
+
+def _fly(sim, label: str, args: argparse.Namespace, t0: float, say) -> None:
+    """Run ``sim`` until Ctrl-C or --duration; then report the ticks and the results table through ``say``."""
+    from ..metrics import format_table
+
     with sim:
         try:
             while args.duration is None or time.monotonic() - t0 < args.duration / args.speedup:
@@ -74,19 +99,13 @@ def cmd_live(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             print("stopping (Ctrl-C)", file=sys.stderr)
     stats = sim.firmware.scheduler.stats()
-    print(f"stopped after {stats['ticks']} ticks ({stats['overruns']} overruns)")
+    say(f"stopped after {stats['ticks']} ticks ({stats['overruns']} overruns)")
     summary = sim.summary()
-    if summary is None:
-        print("(too short to report errors)")
-    else:
-        print(format_table({spec.label: summary}))
-    return 0
+    say("(too short to report errors)" if summary is None else format_table({label: summary}))
 
 
 def cmd_live_thrust(args: argparse.Namespace) -> int:
     """Stream thrust demands to a vehicle over MAVLink at 20 Hz."""
-    from pathlib import Path
-
     from ..thrust import csv_profile, pattern_profile, stream_thrust
 
     o.endpoint(args.mavlink, bind=True)
