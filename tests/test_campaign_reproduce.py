@@ -22,6 +22,12 @@ def test_reproduce_keeps_its_schema_and_figures(tmp_path):
     assert json.loads((tmp_path / "reproduce.json").read_text())["summary"] == json.loads(json.dumps(doc["summary"]))
     for name in REPRODUCE_FIGURES:
         assert (tmp_path / name).stat().st_size > 10_000
+    # every run's results and time series, as `wavekeep run` writes them (so `wavekeep compare` reads them)
+    for c in ("W1", "W2", "W3"):
+        for v in ("cpd", "ff_exact", "ff_snr15"):
+            run_dir = tmp_path / "runs" / f"{c}-{v}"
+            assert json.loads((run_dir / "results.json").read_text())["case"] == c
+            assert len((run_dir / "timeseries.csv").read_text().splitlines()) > 30   # header + about 2 s at 20 Hz
     # a run through the engine is the in-process run
     want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0)).results
     assert doc["runs"][5]["rmse"] == want["rmse"] and doc["runs"][5]["max_abs_error"] == want["max_abs_error"]

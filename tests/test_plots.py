@@ -73,7 +73,7 @@ def test_plot_run_rejects_wrong_columns(tmp_path):
         plot_run(bad, tmp_path / "bad.png")
 
 
-def test_plot_reproduce_writes_the_four_figures(tmp_path, nine_runs):
+def test_plot_reproduce_writes_figs_4_and_5_per_case_and_6_and_7(tmp_path, nine_runs):
     shuffled = nine_runs[:]
     random.Random(1).shuffle(shuffled)           # selection is by case/label, not by position
     paths = plot_reproduce(shuffled, tmp_path)

@@ -30,7 +30,9 @@ __all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_compare", "plot_reproduce", "plo
 DPI = 120
 LABELS: tuple[str, ...] = tuple(v.label for v in PAPER_VARIANTS)   # C-PD, exact, 15 dB
 CPD, FF_EXACT, FF_SNR = LABELS
-REPRODUCE_FIGURES = ("fig4_time_history_W3.png", "fig5_forecast_W3.png", "fig6_errors.png", "fig7_power.png")
+REPRODUCE_FIGURES = (*(f"fig4_time_history_{c}.png" for c in CASES), *(f"fig5_forecast_{c}.png" for c in CASES),
+                     "fig6_errors.png", "fig7_power.png")
+"""What ``plot_reproduce`` writes: Figs. 4 and 5 for every sea state, then Figs. 6 and 7."""
 
 _STYLE = {
     CPD: dict(color="tab:red", ls="-", lw=1.1),
@@ -258,7 +260,7 @@ def plot_forecast(runs: Sequence[RunResult], path: str | Path, case: str = "W3",
     snr = _snr_db(_col(noisy, "wave_eta"), fc)
     axes[0, 0].plot(te[me], eta[me], color="k", lw=1.2, label="encountered wave η")
     axes[0, 0].plot(tn[mn], fc[mn], color="tab:orange", lw=1.0, ls="--",
-                    label=f"{FF_SNR} forecast η̂ (realised SNR {snr:.1f} dB)")
+                    label=f"{FF_SNR} forecast η̂ (elevation SNR {snr:.1f} dB, docs/results.md)")
     axes[0, 0].set_ylabel("elevation (m)")
     axes[0, 0].legend(loc="upper right", fontsize=8)
     if te.shape == tn.shape and np.allclose(te, tn):
@@ -323,7 +325,7 @@ def power_figure(runs: Sequence[RunResult]) -> Figure:
     per = {dof: _metric(runs, "mean_power_w", dof) for dof in DOF}
     total = {label: list(np.sum([per[d][label] for d in DOF], axis=0)) for label in LABELS}
     for ax, (name, vals) in zip(axes[0], [*per.items(), ("total", total)], strict=False):
-        _grouped_bars(ax, vals, "mean power (W)", "%.0f")
+        _grouped_bars(ax, vals, "mean power (W)", "%.2f" if name == "pitch" else "%.0f")
         ax.set_title(f"{name}")
     axes[0, 0].legend(fontsize=8, loc="upper left")
     fig.suptitle("Mean power per DoF and in total")
@@ -339,6 +341,6 @@ def plot_reproduce(runs: Sequence[RunResult], out_dir: str | Path, window: tuple
         for label in LABELS:
             _select(runs, c, label)
     out = Path(out_dir)
-    f4, f5, f6, f7 = (out / name for name in REPRODUCE_FIGURES)
-    return [plot_time_history(runs, f4, "W3", window), plot_forecast(runs, f5, "W3", forecast_window),
-            plot_errors(runs, f6), plot_power(runs, f7)]
+    return [*(plot_time_history(runs, out / f"fig4_time_history_{c}.png", c, window) for c in CASES),
+            *(plot_forecast(runs, out / f"fig5_forecast_{c}.png", c, forecast_window) for c in CASES),
+            plot_errors(runs, out / "fig6_errors.png"), plot_power(runs, out / "fig7_power.png")]

@@ -25,7 +25,7 @@ from .campaign_spec import CampaignSpec, CampaignTask, Variant
 from .campaign_task import TaskOutcome
 from .metrics import DOF
 from .plots import plot_reproduce
-from .results import TIMESERIES_COLUMNS, RunResult
+from .results import TIMESERIES_COLUMNS, RunResult, write_results
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
@@ -133,10 +133,10 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
 
 def _tasks(seed: int | None, duration: float | None, plots: bool,
            overrides: dict[str, float] | None = None) -> list[CampaignTask]:
-    """The nine missions; the W3 ones bring their time series back for Figs. 4 and 5."""
+    """The nine missions; with ``plots`` each brings its time series back (Figs. 4 and 5, DIR/runs/)."""
     return [CampaignTask(f"{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}", VARIANT_KEYS[(v.controller, v.snr_db)],
                          replace(v, case=c, seed=seed, duration=duration, overrides=dict(overrides or {})),
-                         keep_timeseries=plots and c == "W3")
+                         keep_timeseries=plots)
             for c in CASES for v in PAPER_VARIANTS]
 
 
@@ -174,6 +174,8 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
     out.mkdir(parents=True, exist_ok=True)
     (out / "reproduce.json").write_text(json.dumps(doc, indent=2))
     if plots:
+        for t, run in zip(jobs, runs, strict=True):
+            write_results(run, out / "runs" / f"{t.spec.case}-{t.variant}")
         plot_reproduce(runs, out)
     return doc
 
