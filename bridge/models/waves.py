@@ -40,6 +40,7 @@ __all__ = [
     "particle_kinematics",
     "particle_kinematics_grid",
     "particle_velocity",
+    "pressure_head",
     "wavenumber",
 ]
 
@@ -185,6 +186,24 @@ def elevation(c: WaveComponents, x, t) -> np.ndarray:
         factor = 2.0 * (1.0 + xx) * (1.0 + 4.0 * xx + xx * xx) / (1.0 - xx) ** 3
         eta = eta + np.cos(2.0 * th) @ (0.25 * c.k * c.amplitude**2 * factor)
     return eta
+
+
+def pressure_head(c: WaveComponents, x, depth, t) -> np.ndarray:
+    """Linear dynamic pressure head p_d/(ρ g) (m) at (x (m), depth s ≥ 0 (m, down), t (s)).
+
+    p_d/(ρ g) = Σ A_i K_p(k_i, s) cos θ_i with the pressure transfer function
+    K_p = cosh k(d − s)/cosh kd (finite depth d; deep water e^{−ks}; K_p = 1 at
+    the still surface). A pressure sensor at depth s reads p/(ρ g) = s + this
+    head (first order: the Stokes 2nd-order pressure is left out). The ratio is
+    evaluated as (e^{−ks} + e^{−k(2d−s)})/(1 + e^{−2kd}), so large kd cannot overflow.
+    ``x``, ``depth`` and ``t`` broadcast together; the result has their shape.
+    """
+    x, depth, t = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(depth, dtype=float),
+                                      np.asarray(t, dtype=float))
+    s = np.clip(depth, 0.0, c.water_depth)[..., None]
+    e2d = np.exp(-2.0 * c.k * c.water_depth)
+    kp = (np.exp(-c.k * s) + e2d * np.exp(c.k * s)) / (1.0 + e2d)
+    return (kp * np.cos(_phase(c, x, t))) @ c.amplitude
 
 
 def _kinematics_from_trig(c: WaveComponents, ct, st, depth):
