@@ -12,7 +12,7 @@ stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,7 @@ __all__ = [
     "Sea",
     "WaveBuoy",
     "constrained_newwave",
+    "cos2s_directions",
     "discretise_spectrum",
     "jonswap_spectrum",
     "load_sea_config",
@@ -175,6 +176,12 @@ SEA_SCHEMA = {
         "direction": Field("float", lo=-180.0, hi=180.0, default=0.0,
                            doc="deg, towards which it flows, from the wave direction (+x, buoy to vehicle)"),
     },
+    # A short-crested sea: cos-2s spreading about a mean direction (docs/sea-errors.md); absent s = long-crested
+    "spreading": {
+        "s": Field("float", lo=0.5, hi=200.0, required=False, doc="cos-2s spreading exponent"),
+        "direction": Field("float", lo=-90.0, hi=90.0, default=0.0,
+                           doc="deg, mean direction of travel from the buoy-vehicle line (+x)"),
+    },
     # The depth sensor sees the waves' linear dynamic pressure (docs/sea-errors.md)
     "depth_sensor": {
         "dynamic_pressure": Field("bool", default=False),
@@ -221,6 +228,8 @@ def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | Non
     if not lo < 1.0 < hi:
         raise ConfigError(path, "omega_band", f"got {cfg['omega_band']}; allowed: [lo, hi] with lo < 1 < hi")
     _check_focus(path, cfg)
+    if cfg["spreading"]["s"] is not None and cfg["focus"]["crest"] is not None:
+        raise ConfigError(path, "spreading.s", "a design wave (focus) is long-crested: give spreading or focus")
     cfg["source"] = str(path)
     cfg["name"] = cfg["name"] or path.stem
     return cfg
@@ -236,6 +245,20 @@ def _check_focus(path: Path, cfg: dict) -> None:
     if f["crest"] is not None and cfg["spectrum"]["type"] == "jonswap" and f["crest"] > FOCUS_MAX_CREST_OVER_HS * hs:
         raise ConfigError(path, "focus.crest", f"got {f['crest']!r}; allowed: (0, {FOCUS_MAX_CREST_OVER_HS * hs:g}] m "
                                                f"({FOCUS_MAX_CREST_OVER_HS:g} Hs)")
+
+
+def cos2s_directions(s: float, mean: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n directions of travel β (rad) drawn from the cos-2s spreading function about ``mean`` (rad).
+
+    D(β) ∝ cos^{2s}((β − β_m)/2) on (β_m − π, β_m + π] (Longuet-Higgins, Cartwright & Smith 1963),
+    sampled by inverting its CDF tabulated on 4096 points. Its first circular moment is
+    E[cos(β − β_m)] = s/(s + 1) (tested). One direction per frequency component (the
+    single-summation model): the sea's frequency spectrum and Hs stay exactly the drawn ones.
+    """
+    grid = np.linspace(-np.pi, np.pi, 4097)
+    dens = np.cos(0.5 * grid) ** (2.0 * s)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(grid))])
+    return mean + np.interp(rng.uniform(0.0, 1.0, n), cdf / cdf[-1], grid)
 
 
 # ---------------------------------------------------------------------------- design waves
@@ -330,9 +353,10 @@ def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0:
 
 @dataclass(frozen=True)
 class Sea:
-    """A realised, long-crested sea travelling in +x.
+    """A realised sea travelling in +x: long-crested, or short-crested with the config's ``spreading``.
 
-    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase.
+    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase, and in a short-crested
+    sea each component's direction β (the x–z plane sees its in-plane kinematics, docs/sea-errors.md).
     ``spectrum`` is the density it was drawn from (for checks and plots).
     """
 
@@ -372,6 +396,11 @@ class Sea:
         if fc.get("crest") is not None:
             focus = (float(fc["crest"]), float(fc["x"]), float(fc["t"]))
             comps = constrained_newwave(comps, *focus)
+        spread = cfg.get("spreading") or {}
+        if spread.get("s") is not None:   # its own stream: the frequencies and phases stay the long-crested sea's
+            beta = cos2s_directions(spread["s"], np.radians(spread["direction"]), comps.n,
+                                    np.random.default_rng([seed, 0x5D]))
+            comps = replace(comps, direction=beta)
         by = cfg["buoy"]
         errors = BuoyErrors(by["noise_snr_db"], by["dropout"], by["clock_offset"], seed)
         return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, by["x"], by["sample_rate"], focus, errors,

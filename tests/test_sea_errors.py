@@ -266,7 +266,7 @@ def test_the_sea_errors_campaign_reaches_every_option():
     from sitl.harness.campaign_spec import load_campaign_spec
 
     c = load_campaign_spec(Path(__file__).resolve().parents[1] / "configs/campaign/sea_errors.yaml")
-    assert len(c.tasks()) == 3 * 20 * len(c.variants) and c.duration == 600
+    assert len(c.tasks()) == 3 * 20 * len(c.variants) == 1500 and c.duration == 600
     by = {v.name: v for v in c.variants}
     assert by["ff_dswp_buoy10db"].sea == {"buoy.noise_snr_db": 10}
     assert by["ff_current03"].sea == {"current.speed": 0.3, "current.direction": 0}
@@ -322,3 +322,61 @@ def test_a_variant_is_compared_with_its_own_baseline():
     s = summarise_campaign(rows, ["W1"], ["cpd", "cpd_cur", "ff_cur"], "cpd", 200, 0, {"ff_cur": "cpd_cur"})
     assert s["overall"]["ff_cur"]["reduction_pct_mean"] == pytest.approx(50.0)     # against cpd_cur
     assert s["overall"]["cpd_cur"]["reduction_pct_mean"] == pytest.approx(-100.0)  # the error's cost to C-PD
+
+
+# ---------------------------------------------------------------------------- 5. short-crested seas
+
+@pytest.mark.parametrize("s", [1.0, 10.0, 30.0])
+def test_cos2s_directions_have_the_analytic_first_moment(s):
+    from sitl.sea import cos2s_directions
+
+    beta = cos2s_directions(s, np.radians(20.0), 200_000, np.random.default_rng(3))
+    c = np.cos(beta - np.radians(20.0))
+    assert abs(c.mean() - s / (s + 1)) < 4 * c.std() / np.sqrt(c.size)
+    assert abs(np.mean(np.sin(beta - np.radians(20.0)))) < 4 / np.sqrt(c.size)     # symmetric about the mean
+
+
+def test_a_component_at_an_angle_has_in_plane_kinematics():
+    from bridge.models.waves import particle_kinematics, particle_kinematics_grid
+
+    beta = np.radians(35.0)
+    c = WaveComponents.from_spectrum_lines([1.2], [0.7], [0.4], DEPTH, False)
+    c = dataclasses.replace(c, direction=np.array([beta]))
+    k, w, a = c.k[0], 0.7, 1.2
+    x, s, t = np.array([3.0, -20.0]), np.array([5.0, 12.0]), 7.5
+    th = k * np.cos(beta) * x - w * t + 0.4
+    u_truth = a * w * np.cosh(k * (DEPTH - s)) / np.sinh(k * DEPTH) * np.cos(th) * np.cos(beta)
+    w_up_truth = a * w * np.sinh(k * (DEPTH - s)) / np.sinh(k * DEPTH) * np.sin(th)
+    u, wd, _, _ = particle_kinematics(c, x, s, t)
+    np.testing.assert_allclose(u, u_truth, atol=1e-12)
+    np.testing.assert_allclose(wd, -w_up_truth, atol=1e-12)
+    np.testing.assert_allclose(elevation(c, x, t), a * np.cos(th), atol=1e-12)
+    grid = particle_kinematics_grid(c, x, s, np.array([t]))
+    np.testing.assert_allclose(np.concatenate(grid[:2]).ravel(), np.concatenate([u, wd]), atol=1e-12)
+
+
+def test_spread_sea_config_keeps_the_spectrum_and_phases():
+    long = Sea.load("W2")
+    spread = Sea.load("W2", overrides={"spreading.s": 10.0, "spreading.direction": 20.0})
+    assert long.components.direction is None and spread.components.direction is not None
+    for name in ("amplitude", "omega", "k", "phase"):
+        assert np.array_equal(getattr(long.components, name), getattr(spread.components, name))
+    assert np.mean(np.cos(spread.components.direction - np.radians(20.0))) > 0.8
+    with pytest.raises(ConfigError, match=r"spreading.s.*focus"):
+        load_sea_config("design/W2F", {"spreading.s": 10.0})
+
+
+def test_spread_sea_kernels_match_the_numpy_reference(monkeypatch):
+    from bridge.models import kernels
+    from bridge.models.vehicle import body_flow, strip_nodes
+
+    if not kernels.ENABLED:
+        pytest.skip("numba not installed or WAVEKEEP_NUMBA=0")
+    c = Sea.load("W3", overrides={"spreading.s": 10.0, "spreading.direction": 20.0}).components
+    xs = strip_nodes(0.457, 6)
+    t = np.array([10.0, 10.025, 10.05])
+    fast = body_flow(c, np.array([0.3, 5.0, 0.05]), t, xs)
+    monkeypatch.setattr(kernels, "ENABLED", False)
+    ref = body_flow(c, np.array([0.3, 5.0, 0.05]), t, xs)
+    for name in ("u", "w", "ax", "az"):
+        np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), rtol=0, atol=1e-12)

@@ -244,7 +244,8 @@ def _wave_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarr
         x_e2d, _, inv, inv4 = waves._depth_constants
         coef, rate = waves._series_constants
         out = kernels.body_flow_arrays(waves.k, waves.omega, waves.phase, coef, rate, x_e2d, inv, inv4,
-                                       waves.water_depth, float(eta[0]), float(eta[1]), th, xs, tt)
+                                       waves.water_depth, float(eta[0]), float(eta[1]), th, xs, tt,
+                                       waves.kx, waves.in_plane_or_ones)
         return BodyFlow(xs, wts, out[0], out[1], out[2], out[3])
     c, s = math.cos(th), math.sin(th)
     # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
