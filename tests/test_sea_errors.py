@@ -380,3 +380,47 @@ def test_spread_sea_kernels_match_the_numpy_reference(monkeypatch):
     ref = body_flow(c, np.array([0.3, 5.0, 0.05]), t, xs)
     for name in ("u", "w", "ax", "az"):
         np.testing.assert_allclose(getattr(fast, name), getattr(ref, name), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("s, mean", [(10.0, 20.0), (30.0, 0.0), (3.0, -30.0)])
+def test_a_small_array_recovers_the_spreading(s, mean):
+    # Longuet-Higgins' first moments from three gauges: r1 = s/(s+1) and the mean direction, over seeds
+    from bridge.models.waves import elevation_xy
+    from sitl.harness.directional import directional_moments, triangle_array
+
+    gx, gy = triangle_array(0.0, 1.0)
+    t = np.arange(0.0, 2400.0, 0.5)
+    got = []
+    for seed in (1, 2, 3, 4):
+        sea = Sea.load("W2", seed=seed, overrides={"spreading.s": s, "spreading.direction": mean, "components": 600})
+        eta = elevation_xy(sea.components, gx[None, :], gy[None, :], t[:, None])
+        fp = sea.omega_peak / (2 * np.pi)
+        got.append(directional_moments(eta, gx, gy, 0.5, (0.5 * fp, 2.0 * fp)))
+    assert np.mean([g["r1"] for g in got]) == pytest.approx(s / (s + 1), abs=0.02)
+    assert np.mean([g["mean_direction_deg"] for g in got]) == pytest.approx(mean, abs=4.0)
+
+
+def test_a_long_crested_sea_is_the_same_on_every_line():
+    from bridge.models.waves import elevation_xy
+
+    c = Sea.load("W1").components
+    t = np.linspace(0.0, 30.0, 31)
+    assert np.array_equal(elevation_xy(c, 2.0, 7.0, t), elevation(c, 2.0, t))
+
+
+def test_the_run_command_takes_the_world_options():
+    import argparse
+
+    from sitl.harness.commands.options import UsageError, run_spec
+
+    ns = argparse.Namespace(case="W1", controller="cpd_ff", forecast="dswp", forecast_snr_db=None, seed=1,
+                            duration=10.0, mission="station_keeping", vehicle="bluerov2_heavy", params=None, set=None,
+                            sea_set=["buoy.noise_snr_db=10", "current.speed=0.3"], true_vehicle="drag_plus20",
+                            dswp_set=["deep_water=true"])
+    spec = run_spec(ns)
+    assert spec.sea == {"buoy.noise_snr_db": 10, "current.speed": 0.3} and spec.dswp == {"deep_water": True}
+    assert spec.true_vehicle == "drag_plus20"
+    with pytest.raises(UsageError, match=r"--sea-set.*buoy\.dropout"):
+        run_spec(argparse.Namespace(**{**vars(ns), "sea_set": ["buoy.dropout=2"]}))
+    with pytest.raises(UsageError, match=r"--dswp-set"):
+        run_spec(argparse.Namespace(**{**vars(ns), "forecast": "oracle"}))

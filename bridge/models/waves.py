@@ -36,6 +36,7 @@ __all__ = [
     "G",
     "WaveComponents",
     "elevation",
+    "elevation_xy",
     "particle_acceleration",
     "particle_kinematics",
     "particle_kinematics_grid",
@@ -200,7 +201,25 @@ def elevation(c: WaveComponents, x, t) -> np.ndarray:
 
     ``x`` (m) and ``t`` (s) broadcast together; the result has their shape.
     """
+    return _elevation_of_phase(c, _phase(c, x, t))
+
+
+def elevation_xy(c: WaveComponents, x, y, t) -> np.ndarray:
+    """Surface elevation ζ(x, y, t) (m, up) anywhere on the horizontal plane (a wave-gauge array).
+
+    Component i travels at β_i (``c.direction``; 0 for a long-crested sea), phase
+    θ_i = k_i (x cos β_i + y sin β_i) − ω_i t + ε_i; on y = 0 this is :func:`elevation`.
+    ``x``, ``y`` (m) and ``t`` (s) broadcast together.
+    """
+    x, y, t = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(t, dtype=float))
     th = _phase(c, x, t)
+    if c.direction is not None:
+        th = th + y[..., None] * (c.k * np.sin(c.direction))
+    return _elevation_of_phase(c, th)
+
+
+def _elevation_of_phase(c: WaveComponents, th: np.ndarray) -> np.ndarray:
+    """Σ A cos θ plus the Stokes self-interaction terms, given the phases θ (shape S + (N,))."""
     eta = np.cos(th) @ c.amplitude
     if c.second_order:
         xx = np.exp(-2.0 * c.k * c.water_depth)
