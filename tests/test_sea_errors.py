@@ -424,3 +424,49 @@ def test_the_run_command_takes_the_world_options():
         run_spec(argparse.Namespace(**{**vars(ns), "sea_set": ["buoy.dropout=2"]}))
     with pytest.raises(UsageError, match=r"--dswp-set"):
         run_spec(argparse.Namespace(**{**vars(ns), "forecast": "oracle"}))
+
+
+# ---------------------------------------------------------------------------- the networked buoy
+
+class _Session:
+    def __init__(self):
+        self.sent = []
+
+    def declare_publisher(self, key):
+        return type("Pub", (), {"put": lambda _, payload: self.sent.append(payload), "undeclare": lambda _: None})()
+
+
+def test_the_networked_buoy_sends_the_real_buoy_and_the_service_marks_its_gaps():
+    from bridge.buoy_codec import decode_buoy
+    from bridge.forecast_service import append_record
+    from sitl.buoy_publisher import BuoyPublisher
+
+    sea = Sea.load("W1", overrides={"buoy.noise_snr_db": 10.0, "buoy.dropout": 0.2, "buoy.clock_offset": 0.5})
+    session = _Session()
+    pub = BuoyPublisher(session, "moray", sea, history_s=20.0)
+    for t in np.arange(0.05, 20.0, 0.05):
+        pub.advance(float(t))
+    recs = [decode_buoy(p) for p in session.sent]
+    t, eta = np.zeros(0), np.zeros(0)
+    for r in recs:
+        np.testing.assert_allclose(r.eta, sea.buoy().measure(r.t), rtol=0, atol=1e-12)   # noise and offset
+        t, eta = append_record(t, eta, r.t, r.eta, r.dt)
+    assert np.allclose(np.diff(t), 0.5) and t[0] == -20.0 and t[-1] <= 20.0 + 0.5   # stamps: up to now + δ
+    want = sea.buoy().measure(t)
+    np.testing.assert_array_equal(np.isnan(eta), np.isnan(want))                     # the lost ones, as NaN
+    assert 0.1 < np.isnan(eta).mean() < 0.3
+
+
+def test_a_perfect_networked_buoy_sends_what_it_always_sent():
+    from bridge.buoy_codec import decode_buoy
+    from sitl.buoy_publisher import BuoyPublisher
+
+    sea = Sea.load("W1")
+    session = _Session()
+    pub = BuoyPublisher(session, "moray", sea, history_s=10.0)
+    for t in np.arange(0.05, 5.0, 0.05):
+        pub.advance(float(t))
+    recs = [decode_buoy(p) for p in session.sent]
+    assert len(recs) == pub.published
+    for r in recs:
+        assert np.array_equal(r.eta, sea.elevation(sea.buoy_x, r.t0 + 0.5 * np.arange(r.eta.size)))
