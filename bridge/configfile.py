@@ -17,7 +17,8 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "Field", "configs_dir", "load_config", "read_yaml", "resolve_config", "validate"]
+__all__ = ["ConfigError", "Field", "apply_overrides", "configs_dir", "load_config", "read_yaml", "resolve_config",
+           "validate"]
 
 
 class ConfigError(ValueError):
@@ -167,6 +168,31 @@ def read_yaml(path: str | os.PathLike) -> Any:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise ConfigError(path, None, f"not valid YAML: {exc}") from None
+
+
+def apply_overrides(data: Any, overrides: Mapping[str, Any] | None, file=None) -> Any:
+    """A copy of a parsed config document with dotted keys (``buoy.dropout``) set to new values.
+
+    Intermediate mappings are created as needed; the result is validated by the caller, so an
+    unknown key or a bad value is reported like one written in the file. No overrides: ``data``.
+    """
+    if not overrides:
+        return data
+    import copy
+
+    out = copy.deepcopy(data) if data is not None else {}
+    if not isinstance(out, dict):
+        raise ConfigError(file, None, f"expected a mapping, got {type(out).__name__}")
+    for dotted, value in overrides.items():
+        parts = str(dotted).split(".")
+        node = out
+        for i, part in enumerate(parts[:-1]):
+            nxt = node.setdefault(part, {})
+            if not isinstance(nxt, dict):
+                raise ConfigError(file, ".".join(parts[:i + 1]), "is a value, not a section; cannot override below it")
+            node = nxt
+        node[parts[-1]] = value
+    return out
 
 
 def load_config(path: str | os.PathLike, schema: Mapping[str, Any]) -> dict:

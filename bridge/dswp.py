@@ -122,6 +122,8 @@ TAPERS = ("none", "hann")
 
 _UNIFORM_RTOL = 1e-3   # allowed relative deviation of a sampling interval from the median
 _MIN_SAMPLES = 16
+MIN_PRESENT = 0.5
+"""Least share of a window's samples that must be present (not lost) for a prediction."""
 
 
 def group_velocity(omega, water_depth: float, *, deep_water: bool = False, g: float = G) -> np.ndarray:
@@ -163,16 +165,17 @@ def predictable_zone(t_end: float, record_length: float, distance: float,
     return float(lo), float(hi)
 
 
-def _check_record(t, eta, now):
+def _check_record(t, eta, now, allow_gaps: bool = False):
     t = np.asarray(t, dtype=float)
     eta = np.asarray(eta, dtype=float)
     if t.ndim != 1 or eta.shape != t.shape:
         raise ValueError(f"t and eta must be 1-D arrays of the same length; got shapes {t.shape} and {eta.shape}")
     if not np.all(np.isfinite(t)):
         raise ValueError("buoy record: time stamps contain NaN or inf")
-    if not np.all(np.isfinite(eta)):
+    if np.any(np.isinf(eta)) or (not allow_gaps and not np.all(np.isfinite(eta))):
         bad = int(np.count_nonzero(~np.isfinite(eta)))
-        raise ValueError(f"buoy record: elevation contains {bad} NaN/inf sample(s); fill or drop the gap first")
+        raise ValueError(f"buoy record: elevation contains {bad} NaN/inf sample(s); fill or drop the gap first "
+                         "(or allow_gaps=True for lost samples as NaN)")
     if now is not None:
         if not np.isfinite(now):
             raise ValueError(f"now must be finite, got {now!r}")
@@ -223,6 +226,20 @@ def _check_arguments(x_buoy, x_vehicle, water_depth, window_s, f_min, f_max, rel
 
 
 
+def _fill_gaps(eta: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """Lost samples (NaN) of a uniform record: (η with the gaps linearly interpolated, the mask of the
+    samples present), or (η, None) when none is lost. The filled record serves only to select the DFT
+    bins; the fit uses the present samples alone, so a gap adds no invented data to the components."""
+    ok = np.isfinite(eta)
+    if ok.all():
+        return eta, None
+    if ok.sum() < max(_MIN_SAMPLES, MIN_PRESENT * eta.size):
+        raise ValueError(f"buoy record: {eta.size - int(ok.sum())} of {eta.size} samples lost; need at least "
+                         f"{MIN_PRESENT:.0%} of the window present")
+    idx = np.arange(eta.size)
+    return np.interp(idx, idx[ok], eta[ok]), ok
+
+
 def _select_frequencies(eta: np.ndarray, n: int, dt: float, f_min: float, f_max: float, rel_threshold: float,
                         taper: str, oversample: int) -> np.ndarray:
     """Angular frequencies (rad/s) of the record's strong in-band DFT bins (oversampled when asked)."""
@@ -254,11 +271,14 @@ def _select_frequencies(eta: np.ndarray, n: int, dt: float, f_min: float, f_max:
 
 
 def _fit_components(tau: np.ndarray, eta: np.ndarray, omega: np.ndarray, n: int, dt: float, taper: str,
-                   oversample: int, ridge: float, rel_threshold: float):
-    """(ω, A, φ) of the least-squares (or ridge) fit of the record to cos/sin at ``omega``, τ = t − t_b."""
+                   oversample: int, ridge: float, rel_threshold: float, present: np.ndarray | None = None):
+    """(ω, A, φ) of the least-squares (or ridge) fit of the record to cos/sin at ``omega``, τ = t − t_b;
+    ``present``: the mask of the samples not lost (None: all), the only rows fitted."""
     # Columns: constant, linear trend, then cos ω τ and sin ω τ for every kept frequency.
     arg = np.multiply.outer(tau, omega)
     cols = np.hstack([np.ones((n, 1)), (tau / (n * dt))[:, None], np.cos(arg), np.sin(arg)])
+    if present is not None:
+        cols, eta, n = cols[present], eta[present], int(np.count_nonzero(present))
     if oversample == 1:
         coef, *_ = np.linalg.lstsq(cols, eta, rcond=None)
     else:
@@ -284,7 +304,8 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
                       window_s: float = 300.0, f_min: float = 0.05, f_max: float = 0.5,
                       rel_threshold: float = 0.05, deep_water: bool = False, taper: str = "none",
                       oversample: int = 1, ridge: float = 1e-3, g: float = G, now: float | None = None,
-                      source: str = "dswp", seq: int = 0) -> Forecast:
+                      source: str = "dswp", seq: int = 0, horizon_s: float | None = None,
+                      allow_gaps: bool = False) -> Forecast:
     """Linear deterministic wave prediction at ``x_vehicle`` from the buoy record (t, eta) at ``x_buoy``.
 
     Parameters
@@ -305,6 +326,11 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
     ridge : relative ridge weight λ, used only when oversample > 1.
     now : time of prediction (vehicle clock); samples after it are ignored. Default: the last sample.
     source, seq : copied into the Forecast.
+    horizon_s : None (default): valid until the predictable zone closes (t_e + D/c_g,max); a number:
+        valid until t_e + ``horizon_s`` instead, a fixed horizon that may overstate the zone.
+    allow_gaps : accept lost samples (NaN elevations on the uniform grid): bins are selected on the
+        record with the gaps interpolated, the fit uses the present samples only; at least
+        :data:`MIN_PRESENT` of the window must be present.
 
     Returns a :class:`Forecast` with x_ref = x_buoy, time_base = the newest used sample time,
     second_order = False, and valid_from/valid_until the predictable zone at x_vehicle.
@@ -313,7 +339,9 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
                      oversample, ridge)
     oversample = int(oversample)
     distance = float(x_vehicle) - float(x_buoy)
-    t, eta, dt = _check_record(t, eta, now)
+    if horizon_s is not None and not (np.isfinite(horizon_s) and horizon_s > 0):
+        raise ValueError(f"horizon_s must be positive and finite, got {horizon_s!r}")
+    t, eta, dt = _check_record(t, eta, now, allow_gaps)
 
     # ------------------------------------------------------------------ window
     n = min(t.size, max(1, int(round(window_s / dt))))
@@ -325,8 +353,10 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
     # Sample times on the exact uniform grid ending at t_b (the check allowed tiny jitter)
     tau = (np.arange(n) - (n - 1)) * dt            # t − t_b, ≤ 0
 
-    omega = _select_frequencies(eta, n, dt, f_min, f_max, rel_threshold, taper, oversample)
-    omega, amplitude, phase = _fit_components(tau, eta, omega, n, dt, taper, oversample, ridge, rel_threshold)
+    filled, present = _fill_gaps(eta)
+    omega = _select_frequencies(filled, n, dt, f_min, f_max, rel_threshold, taper, oversample)
+    omega, amplitude, phase = _fit_components(tau, eta, omega, n, dt, taper, oversample, ridge, rel_threshold,
+                                              present)
 
     # ------------------------------------------------------------------ propagation and validity
     k = omega ** 2 / g if deep_water else wavenumber(omega, water_depth, g)
@@ -334,6 +364,8 @@ def predict_from_buoy(t, eta, x_buoy: float, x_vehicle: float, water_depth: floa
     cg_max, cg_min = float(np.max(cg)), float(np.min(cg))
     record_length = float((n - 1) * dt)
     valid_from, valid_until = predictable_zone(t_b, record_length, distance, cg_min, cg_max)
+    if horizon_s is not None:
+        valid_until = t_b + float(horizon_s)
 
     return Forecast(amplitude=amplitude, omega=omega, k=k, phase=phase, water_depth=float(water_depth),
                     x_ref=float(x_buoy), time_base=t_b, valid_from=valid_from, valid_until=valid_until,

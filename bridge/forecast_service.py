@@ -33,7 +33,22 @@ from .forecast import Forecast
 from .forecast_codec import encode_forecast
 from .keys import buoy_key, forecast_key, forecast_latest_key, service_token_key
 
-__all__ = ["ForecastService"]
+__all__ = ["ForecastService", "append_record"]
+
+
+def append_record(t: np.ndarray, eta: np.ndarray, rec_t: np.ndarray, rec_eta: np.ndarray,
+                  dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The held record (t, η) with a newly received one appended: overlaps and replays dropped, and
+    samples the buoy lost (a jump of more than one step dt (s) on its grid) filled in as NaN, so the
+    record stays on its uniform grid and DSWP fits around the gap (``allow_gaps``)."""
+    keep = rec_t > (t[-1] if t.size else -np.inf)
+    rec_t, rec_eta = rec_t[keep], rec_eta[keep]
+    if t.size and rec_t.size:
+        missing = int(round((rec_t[0] - t[-1]) / dt)) - 1
+        if missing > 0:
+            rec_t = np.concatenate([t[-1] + dt * np.arange(1, missing + 1), rec_t])
+            rec_eta = np.concatenate([np.full(missing, np.nan), rec_eta])
+    return np.concatenate([t, rec_t]), np.concatenate([eta, rec_eta])
 
 
 class ForecastService:
@@ -81,10 +96,7 @@ class ForecastService:
                 self.counters["buoy_rejected"] += 1
                 continue
             self.counters["buoy_records"] += 1
-            t = rec.t
-            keep = t > (self._t[-1] if self._t.size else -np.inf)   # drop overlaps and replays
-            self._t = np.concatenate([self._t, t[keep]])
-            self._eta = np.concatenate([self._eta, rec.eta[keep]])
+            self._t, self._eta = append_record(self._t, self._eta, rec.t, rec.eta, rec.dt)
             cut = self._t > self._t[-1] - 2.0 * self.window
             self._t, self._eta = self._t[cut], self._eta[cut]
             self.buoy_x = rec.x
@@ -104,7 +116,8 @@ class ForecastService:
         sel = self._t >= self._t[-1] - self.window
         try:
             return predict_from_buoy(self._t[sel], self._eta[sel], self.buoy_x, self.x_vehicle, self.water_depth,
-                                     window_s=self.window, deep_water=self.deep_water, oversample=2, seq=self.seq)
+                                     window_s=self.window, deep_water=self.deep_water, oversample=2, seq=self.seq,
+                                     allow_gaps=True)
         except ValueError as exc:
             self.counters["predict_failed"] += 1
             self.last_error = str(exc)

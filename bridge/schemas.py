@@ -6,11 +6,13 @@ error format.
 """
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
-from bridge.configfile import Field, load_config, resolve_config
+from bridge.configfile import ConfigError, Field, load_config, resolve_config
 
-__all__ = ["MISSION_SCHEMA", "VEHICLE_SCHEMA", "load_mission_config", "load_vehicle_config"]
+__all__ = ["MISSION_SCHEMA", "TRUE_VEHICLE_SCHEMA", "VEHICLE_SCHEMA", "apply_true_vehicle", "load_mission_config",
+           "load_true_vehicle", "load_vehicle_config"]
 
 
 
@@ -80,9 +82,43 @@ MISSION_SCHEMA = {
 }
 
 
+def _factor(doc: str) -> Field:
+    return Field("float", lo=0.1, hi=10.0, default=1.0, doc=doc)
+
+
+_SCALED = {"added_mass": ("X_udot", "Z_wdot", "M_qdot", "X_qdot"),
+           "damping": ("X_u", "Z_w", "M_q", "X_uu", "Z_ww", "M_qq"),
+           "mass_properties": ("B", "r_B")}
+
+TRUE_VEHICLE_SCHEMA = {
+    "name": Field("str"),
+    "scale": {**{k: _factor(f"x nominal {k}") for k in _SCALED["added_mass"] + _SCALED["damping"]},
+              "B": _factor("x nominal buoyancy (the displaced volume)"),
+              "r_B": _factor("x nominal centre of buoyancy (both components)")},
+}
+"""A plant-only "true vehicle" (``configs/vehicle/true/NAME.yaml``): factors on the nominal vehicle's
+coefficients, so the simulated vehicle differs from the firmware's model (docs/sea-errors.md)."""
+
+
+def load_true_vehicle(name_or_path: str | Path) -> dict:
+    """Load and validate a true-vehicle override by name (``configs/vehicle/true/NAME.yaml``) or path."""
+    return load_config(resolve_config(name_or_path, "vehicle/true"), TRUE_VEHICLE_SCHEMA)
+
+
+def apply_true_vehicle(vcfg: dict, true_vehicle: dict) -> dict:
+    """A copy of a validated vehicle config with the true vehicle's factors applied (plant only)."""
+    out = copy.deepcopy(vcfg)
+    sc = true_vehicle["scale"]
+    for section, keys in _SCALED.items():
+        for k in keys:
+            v = out[section][k]
+            out[section][k] = [sc[k] * x for x in v] if isinstance(v, list) else sc[k] * v
+    out["name"] = f"{vcfg['name']}+{true_vehicle['name']}"
+    return out
+
+
 def load_vehicle_config(name_or_path: str | Path = "bluerov2_heavy") -> dict:
     """Load and validate a vehicle config by name (``configs/vehicle/NAME.yaml``) or path."""
-    from bridge.configfile import ConfigError
     path = resolve_config(name_or_path, "vehicle")
     cfg = load_config(path, VEHICLE_SCHEMA)
     th = cfg["thrusters"]

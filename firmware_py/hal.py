@@ -77,7 +77,8 @@ class InProcessSITLHAL(HAL):
         nu_dot = getattr(self.plant, "nu_dot", None)     # the plant's body acceleration, if it keeps one
         g = getattr(getattr(self.plant, "vehicle", None), "g", None)
         accel = None if nu_dot is None or g is None else specific_force(s.eta, s.nu, nu_dot, g)
-        return self.sensors.read(s.t, s.eta, s.nu, accel)
+        # A plant that models the depth sensor's dynamic pressure says what the sensor reads (m)
+        return self.sensors.read(s.t, s.eta, s.nu, accel, getattr(self.plant, "pressure_depth", None))
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.last_pwm = np.array(pwm, dtype=np.int64)

@@ -9,8 +9,9 @@ Sensors (paper §IV: sensor noise on, EKF in the loop; the paper gives no values
 * horizontal position fix x (m), at ``SIM_POS_RATE`` Hz — an acoustic
   positioning system (USBL class);
 * depth (m) from a Bar30-like pressure sensor, every tick; reported also as
-  absolute pressure (Pa) for telemetry. The wave's dynamic pressure is not
-  modelled: the plant's state carries no pressure field;
+  absolute pressure (Pa) for telemetry. It reads the true depth unless the plant
+  gives the pressure depth p/(ρ g) with the waves' dynamic pressure in it (the
+  sea config's ``depth_sensor.dynamic_pressure``, docs/sea-errors.md; in-process SITL);
 * pitch (rad) and pitch rate (rad/s) from the IMU/AHRS, every tick;
 * body velocity [u, w] (m/s) from a DVL with bottom lock (Water Linked A50 class) at
   ``SIM_DVL_RATE`` Hz, only while the altitude ``SIM_WATER_DEPTH`` − depth is within
@@ -97,9 +98,10 @@ class SimulatedSensors:
         p = self.params
         return p["SIM_DVL_ALT_MIN"] <= p["SIM_WATER_DEPTH"] - depth <= p["SIM_DVL_ALT_MAX"]
 
-    def read(self, t: float, eta, nu, accel=None) -> SensorFrame:
+    def read(self, t: float, eta, nu, accel=None, pressure_depth: float | None = None) -> SensorFrame:
         """Sample the sensors at time t (s) for truth η = [x, z, θ], ν = [u, w, q] and, when known,
-        the specific force ``accel`` = [f_x, f_z] (m/s², :func:`specific_force`)."""
+        the specific force ``accel`` = [f_x, f_z] (m/s², :func:`specific_force`). ``pressure_depth``
+        (m), when given, is what the pressure sensor sees instead of the true depth z (dynamic pressure)."""
         p = self.params
         # Draw every channel every tick so the noise sequence is independent of rates.
         n = self.rng.standard_normal(4)
@@ -112,7 +114,8 @@ class SimulatedSensors:
         return SensorFrame(
             t=t,
             x=float(eta[0] + p["SIM_POS_RND"] * n[0]) if fix else math.nan,
-            depth=float(eta[1] + p["SIM_DEPTH_RND"] * n[1]) if baro else math.nan,
+            depth=float((eta[1] if pressure_depth is None else pressure_depth) + p["SIM_DEPTH_RND"] * n[1])
+            if baro else math.nan,
             pitch=float(eta[2] + p["SIM_PITCH_RND"] * n[2]),
             pitch_rate=float(nu[2] + p["SIM_GYRO_RND"] * n[3]),
             dvl_u=float(nu[0] + p["SIM_DVL_RND"] * a[0]) if dvl else math.nan,

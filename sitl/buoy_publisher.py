@@ -4,6 +4,11 @@ Call :meth:`BuoyPublisher.advance` with the simulation time after each plant
 step; every ``publish_every_s`` of simulated time the samples taken since the
 last message (on the buoy's own sample grid) go out on
 ``wavekeep/<site>/buoy/elevation`` (:mod:`bridge.buoy_codec`).
+
+The buoy's errors (the sea config's ``buoy`` section, docs/sea-errors.md) are the in-process
+ones: the samples carry its noise and its clock's stamps, a sample is sent once it has been
+measured on the vehicle's clock, and a lost sample is simply not sent (a record holds only
+contiguous samples, so a gap splits a message in two; the service marks the gap as lost).
 """
 from __future__ import annotations
 
@@ -17,6 +22,14 @@ from bridge.keys import buoy_key
 from .sea import Sea
 
 __all__ = ["BuoyPublisher"]
+
+
+def _contiguous(present: np.ndarray) -> list[slice]:
+    """The runs of consecutive True in ``present``, as slices."""
+    if present.all():
+        return [slice(0, present.size)]
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], present.astype(np.int8), [0]])))
+    return [slice(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
 
 class BuoyPublisher:
@@ -41,13 +54,15 @@ class BuoyPublisher:
         """Publish the samples up to simulated time t (s) if a message is due."""
         if t - self._last_publish_t < self.every and self._last_publish_t > -np.inf:
             return
-        last = int(np.floor(t / self.dt + 1e-9))
+        last = int(np.floor(t / self.dt + 1e-9)) if not self.buoy.errors.active else \
+            int(round(self.buoy.newest_stamp(t) / self.dt))
         if last < self._next_sample:
             return
         times = np.arange(self._next_sample, last + 1) * self.dt
-        eta = self.buoy.sea.elevation(self.buoy.x, times)
-        self.seq += 1
-        self._pub.put(encode_buoy(BuoyRecord(self.buoy.x, self.dt, float(times[0]), eta, self.seq)))
+        eta = self.buoy.measure(times)
+        for run in _contiguous(np.isfinite(eta)):
+            self.seq += 1
+            self._pub.put(encode_buoy(BuoyRecord(self.buoy.x, self.dt, float(times[run][0]), eta[run], self.seq)))
         self._next_sample = last + 1
         self._last_publish_t = t
         self.published += 1

@@ -31,7 +31,7 @@ from bridge.models.vehicle import (
     strip_nodes,
     wave_load,
 )
-from bridge.schemas import load_mission_config, load_vehicle_config
+from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
 
 from .sea import Sea
 
@@ -70,10 +70,17 @@ class Plant:
         self.tau_E = np.zeros(3)        # wave load at the end of the last step
         self.tau = np.zeros(3)          # thruster load at the end of the last step
         self.nu_dot = np.zeros(3)       # body acceleration at the end of the last step
+        self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north)
+        self.pressure_depth: float | None = None   # what a pressure sensor reads (m), with the sea's option
 
     @classmethod
-    def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping") -> Plant:
+    def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping",
+                     true_vehicle: str | None = None) -> Plant:
+        """The plant of the vehicle and mission configs; ``true_vehicle`` names a plant-only override
+        (``configs/vehicle/true/``) that scales the vehicle's coefficients: the firmware keeps the nominal ones."""
         vcfg = load_vehicle_config(vehicle)
+        if true_vehicle:
+            vcfg = apply_true_vehicle(vcfg, load_true_vehicle(true_vehicle))
         mcfg = load_mission_config(mission)
         plant = cls(VehicleParams.from_config(vcfg), sea, ThrusterLayout.from_config(vcfg["thrusters"]),
                     T200Curve.from_config(vcfg["thrusters"]), vcfg["thrusters"]["time_constant"],
@@ -89,10 +96,18 @@ class Plant:
         self.tau_E = self.wave_load(self.state.eta, self.state.nu, self.state.t)
         self.tau = np.zeros(3)
         self.nu_dot = np.zeros(3)
+        self._update_pressure()
+
+    def _update_pressure(self) -> None:
+        """The depth a pressure sensor at the body origin reads, p/(ρ g) = z + Σ A K_p cos θ (m), when the
+        sea's ``depth_sensor.dynamic_pressure`` is on; None (the sensor reads the true depth) otherwise."""
+        if self.sea.dynamic_pressure:
+            s = self.state
+            self.pressure_depth = float(s.eta[1] + self.sea.pressure_head(s.eta[0], s.eta[1], s.t))
 
     def wave_load(self, eta, nu, t) -> np.ndarray:
         """τ_E (paper Eq. 11, relative-velocity form) on the body at pose η moving with ν, at time(s) t."""
-        return wave_load(self.vehicle, self.sea.components, eta, nu, t, self.strips)
+        return wave_load(self.vehicle, self.sea.components, eta, nu, t, self.strips, self.current_x)
 
     def step(self, pwm, dt: float) -> PlantState:
         """Hold the eight PWM commands (µs) for dt seconds and advance the world.
@@ -119,7 +134,7 @@ class Plant:
         t = s.t
         for i in range(self.substeps):
             tau_thr = motor_lag_stages(f_cmd, s.thrust, self.t_m, i * h + stage) @ self.B.T
-            flow = body_flow(self.sea.components, x[:3], t + stage, self.strips)
+            flow = body_flow(self.sea.components, x[:3], t + stage, self.strips, self.current_x)
             x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
         f = motor_lag_stages(f_cmd, s.thrust, self.t_m, [dt])[0]
@@ -128,6 +143,7 @@ class Plant:
         u, w, q = x[3:].tolist()
         self.tau_E = hydrodynamic_load_at(p, u, w, q, flow, 2) - hydrodynamic_load_at(p, u, w, q, None)
         self.nu_dot = state_rates_at(p, x, self.tau, flow, 2)[3:]
+        self._update_pressure()
         return self.state
 
     def power_per_dof(self) -> np.ndarray:

@@ -11,14 +11,15 @@ stated Hs); the buoy-style measured spectrum is read from a CSV of frequency
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from bridge.configfile import ConfigError, Field, load_config, resolve_config
+from bridge.configfile import ConfigError, Field, apply_overrides, read_yaml, resolve_config, validate
 from bridge.csvio import read_numeric_csv
 from bridge.models.waves import (
     G,
@@ -27,7 +28,10 @@ from bridge.models.waves import (
     particle_acceleration,
     particle_kinematics,
     particle_velocity,
+    pressure_head,
 )
+
+from .buoy import NO_BUOY_ERRORS, BuoyErrors, WaveBuoy
 
 __all__ = [
     "SEA_SCHEMA",
@@ -35,6 +39,7 @@ __all__ = [
     "Sea",
     "WaveBuoy",
     "constrained_newwave",
+    "cos2s_directions",
     "discretise_spectrum",
     "jonswap_spectrum",
     "load_sea_config",
@@ -160,6 +165,26 @@ SEA_SCHEMA = {
     "buoy": {
         "x": Field("float", lo=-1.0e4, hi=1.0e4, default=-50.0),
         "sample_rate": Field("float", lo=0.1, hi=100.0, default=2.0),
+        # A real buoy's errors (docs/sea-errors.md), all off by default
+        "noise_snr_db": Field("float", lo=-20.0, hi=80.0, required=False, doc="dB of white noise; absent: none"),
+        "dropout": Field("float", lo=0.0, hi=0.9, default=0.0, doc="probability that a sample is lost"),
+        "clock_offset": Field("float", lo=-30.0, hi=30.0, default=0.0, doc="s, buoy clock minus vehicle clock"),
+    },
+    # A steady, depth-uniform current (docs/sea-errors.md): speed 0 = none
+    "current": {
+        "speed": Field("float", lo=0.0, hi=3.0, default=0.0, doc="m/s"),
+        "direction": Field("float", lo=-180.0, hi=180.0, default=0.0,
+                           doc="deg, towards which it flows, from the wave direction (+x, buoy to vehicle)"),
+    },
+    # A short-crested sea: cos-2s spreading about a mean direction (docs/sea-errors.md); absent s = long-crested
+    "spreading": {
+        "s": Field("float", lo=0.5, hi=200.0, required=False, doc="cos-2s spreading exponent"),
+        "direction": Field("float", lo=-90.0, hi=90.0, default=0.0,
+                           doc="deg, mean direction of travel from the buoy-vehicle line (+x)"),
+    },
+    # The depth sensor sees the waves' linear dynamic pressure (docs/sea-errors.md)
+    "depth_sensor": {
+        "dynamic_pressure": Field("bool", default=False),
     },
     # A design wave embedded in the random sea (constrained NewWave): absent = no focusing
     "focus": {
@@ -173,10 +198,14 @@ FOCUS_MAX_CREST_OVER_HS = 2.5
 """Largest focused crest allowed, as a multiple of Hs: beyond it the Stokes expansion (and the sea) breaks."""
 
 
-def load_sea_config(name_or_path: str | Path) -> dict:
-    """Load and validate a sea config by name (``configs/sea/W1.yaml``) or path."""
+def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None) -> dict:
+    """Load and validate a sea config by name (``configs/sea/W1.yaml``) or path.
+
+    ``overrides`` maps dotted keys (``buoy.noise_snr_db``, ``current.speed``) to values that replace
+    the file's before validation, so a bad one is named like a bad key of the file.
+    """
     path = resolve_config(name_or_path, "sea")
-    cfg = load_config(path, SEA_SCHEMA)
+    cfg = validate(apply_overrides(read_yaml(path), overrides, path), SEA_SCHEMA, path)
     sp = cfg["spectrum"]
     if sp["type"] == "jonswap":
         for key in ("hs", "tp"):
@@ -199,6 +228,8 @@ def load_sea_config(name_or_path: str | Path) -> dict:
     if not lo < 1.0 < hi:
         raise ConfigError(path, "omega_band", f"got {cfg['omega_band']}; allowed: [lo, hi] with lo < 1 < hi")
     _check_focus(path, cfg)
+    if cfg["spreading"]["s"] is not None and cfg["focus"]["crest"] is not None:
+        raise ConfigError(path, "spreading.s", "a design wave (focus) is long-crested: give spreading or focus")
     cfg["source"] = str(path)
     cfg["name"] = cfg["name"] or path.stem
     return cfg
@@ -214,6 +245,20 @@ def _check_focus(path: Path, cfg: dict) -> None:
     if f["crest"] is not None and cfg["spectrum"]["type"] == "jonswap" and f["crest"] > FOCUS_MAX_CREST_OVER_HS * hs:
         raise ConfigError(path, "focus.crest", f"got {f['crest']!r}; allowed: (0, {FOCUS_MAX_CREST_OVER_HS * hs:g}] m "
                                                f"({FOCUS_MAX_CREST_OVER_HS:g} Hs)")
+
+
+def cos2s_directions(s: float, mean: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """n directions of travel β (rad) drawn from the cos-2s spreading function about ``mean`` (rad).
+
+    D(β) ∝ cos^{2s}((β − β_m)/2) on (β_m − π, β_m + π] (Longuet-Higgins, Cartwright & Smith 1963),
+    sampled by inverting its CDF tabulated on 4096 points. Its first circular moment is
+    E[cos(β − β_m)] = s/(s + 1) (tested). One direction per frequency component (the
+    single-summation model): the sea's frequency spectrum and Hs stay exactly the drawn ones.
+    """
+    grid = np.linspace(-np.pi, np.pi, 4097)
+    dens = np.cos(0.5 * grid) ** (2.0 * s)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(grid))])
+    return mean + np.interp(rng.uniform(0.0, 1.0, n), cdf / cdf[-1], grid)
 
 
 # ---------------------------------------------------------------------------- design waves
@@ -308,9 +353,10 @@ def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0:
 
 @dataclass(frozen=True)
 class Sea:
-    """A realised, long-crested sea travelling in +x.
+    """A realised sea travelling in +x: long-crested, or short-crested with the config's ``spreading``.
 
-    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase.
+    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase, and in a short-crested
+    sea each component's direction β (the x–z plane sees its in-plane kinematics, docs/sea-errors.md).
     ``spectrum`` is the density it was drawn from (for checks and plots).
     """
 
@@ -323,6 +369,9 @@ class Sea:
     buoy_x: float = -50.0
     buoy_rate: float = 2.0
     focus: tuple[float, float, float] | None = None     # (crest m, x m, t s) of an embedded NewWave
+    buoy_errors: BuoyErrors = NO_BUOY_ERRORS            # the buoy's measurement errors (none by default)
+    current: tuple[float, float] = (0.0, 0.0)           # steady current: speed (m/s), direction (deg from +x)
+    dynamic_pressure: bool = False                      # the depth sensor sees the waves' dynamic pressure
 
     @classmethod
     def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
@@ -347,13 +396,20 @@ class Sea:
         if fc.get("crest") is not None:
             focus = (float(fc["crest"]), float(fc["x"]), float(fc["t"]))
             comps = constrained_newwave(comps, *focus)
-        return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, cfg["buoy"]["x"], cfg["buoy"]["sample_rate"],
-                   focus)
+        spread = cfg.get("spreading") or {}
+        if spread.get("s") is not None:   # its own stream: the frequencies and phases stay the long-crested sea's
+            beta = cos2s_directions(spread["s"], np.radians(spread["direction"]), comps.n,
+                                    np.random.default_rng([seed, 0x5D]))
+            comps = replace(comps, direction=beta)
+        by = cfg["buoy"]
+        errors = BuoyErrors(by["noise_snr_db"], by["dropout"], by["clock_offset"], seed)
+        return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, by["x"], by["sample_rate"], focus, errors,
+                   (cfg["current"]["speed"], cfg["current"]["direction"]), cfg["depth_sensor"]["dynamic_pressure"])
 
     @classmethod
-    def load(cls, case: str | Path, seed: int | None = None) -> Sea:
-        """``Sea.load("W1")`` or ``Sea.load("path/to/sea.yaml")``."""
-        return cls.from_config(load_sea_config(case), seed)
+    def load(cls, case: str | Path, seed: int | None = None, overrides: Mapping[str, Any] | None = None) -> Sea:
+        """``Sea.load("W1")`` or ``Sea.load("path/to/sea.yaml")``; ``overrides`` as in :func:`load_sea_config`."""
+        return cls.from_config(load_sea_config(case, overrides), seed)
 
     @classmethod
     def still_water(cls, depth: float = 54.0) -> Sea:
@@ -364,6 +420,19 @@ class Sea:
     @property
     def water_depth(self) -> float:
         return self.components.water_depth
+
+    @property
+    def current_x(self) -> float:
+        """The current's in-plane component U_c cos ψ_c (m/s, NED north = the waves' direction).
+
+        The vehicle's model is the x–z plane: the cross-plane part U_c sin ψ_c is left out.
+        """
+        speed, direction = self.current
+        return 0.0 if speed == 0.0 else float(speed * np.cos(np.radians(direction)))
+
+    def pressure_head(self, x, depth, t) -> np.ndarray:
+        """Linear dynamic pressure head p_d/(ρ g) (m) at (x (m), depth (m), t (s)): Σ A_i K_p,i cos θ_i."""
+        return pressure_head(self.components, x, depth, t)
 
     def hs(self) -> float:
         """Significant wave height 4√m0 of the realised linear components (m)."""
@@ -386,26 +455,6 @@ class Sea:
         return particle_kinematics(self.components, x, depth, t)
 
     def buoy(self, x: float | None = None, sample_rate: float | None = None) -> WaveBuoy:
-        return WaveBuoy(self, self.buoy_x if x is None else x, self.buoy_rate if sample_rate is None else sample_rate)
-
-
-@dataclass(frozen=True)
-class WaveBuoy:
-    """A surface-following wave buoy at an up-wave position: it records ζ(x_b, t)."""
-
-    sea: Sea
-    x: float
-    sample_rate: float
-
-    def sample_times(self, t0: float, t1: float) -> np.ndarray:
-        """Sample instants k/fs within [t0, t1] on the buoy's own grid (s)."""
-        dt = 1.0 / self.sample_rate
-        k0, k1 = np.ceil(t0 / dt - 1e-9), np.floor(t1 / dt + 1e-9)
-        return np.arange(k0, k1 + 1) * dt
-
-    def record(self, t0: float, t1: float, chunk: int = 4096) -> tuple[np.ndarray, np.ndarray]:
-        """(t, ζ) sampled at the buoy's rate over [t0, t1]."""
-        t = self.sample_times(t0, t1)
-        eta = np.concatenate([self.sea.elevation(self.x, t[i:i + chunk]) for i in range(0, t.size, chunk)]) \
-            if t.size else np.zeros(0)
-        return t, eta
+        """The sea's up-wave buoy (:mod:`sitl.buoy`), with the config's measurement errors."""
+        return WaveBuoy(self, self.buoy_x if x is None else x, self.buoy_rate if sample_rate is None else sample_rate,
+                        self.buoy_errors)

@@ -52,13 +52,14 @@ except ImportError:   # the reference path only: the kernels below run as plain 
 
 @njit(cache=True)
 def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
-                     eta0, eta1, th, xs, t):  # pragma: no cover - compiled
+                     eta0, eta1, th, xs, t, kx, hx):  # pragma: no cover - compiled
     """Fluid velocity and local acceleration at a body's strips, body frame: out[4, T, S] = u, w, u̇, ẇ.
 
     Components k (rad/m), ω (rad/s), ε (rad); ``coef``/``rate`` the (orders, N) series
     constants of :class:`~bridge.models.waves.WaveComponents`; ``x_e2d`` = e^{−2kd}, ``inv`` =
-    1/(1 − e^{−2kd}), ``inv4`` = 8 inv⁴; pose (η0 m, η1 m depth, θ rad); strip x' (m); times t (s).
-    The arithmetic of :func:`~bridge.models.vehicle.body_flow` over
+    1/(1 − e^{−2kd}), ``inv4`` = 8 inv⁴; pose (η0 m, η1 m depth, θ rad); strip x' (m); times t (s); ``kx``,
+    ``hx``: k cos β and cos β (``WaveComponents.kx``, ``in_plane_or_ones``). The arithmetic of
+    :func:`~bridge.models.vehicle.body_flow` over
     :func:`~bridge.models.waves.particle_kinematics_grid`, summed per component in order.
     """
     orders, n = coef.shape
@@ -84,11 +85,11 @@ def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
         xe = eta0 + xs[p] * c
         dep = min(max(eta1 - xs[p] * s, 0.0), water_depth)
         for j in range(n):
-            a = xe * k[j] + phase[j]
+            a = xe * kx[j] + phase[j]
             ca1, sa1 = math.cos(a), math.sin(a)
             ea = math.exp(-dep * k[j])
             eb = x_e2d[j] / ea
-            W[0, j] = (ea + eb) * inv[j] * coef[0, j]
+            W[0, j] = (ea + eb) * inv[j] * coef[0, j] * hx[j]
             W[1, j] = (ea - eb) * inv[j] * coef[0, j]
             W[2, j] = W[0, j] * rate[0, j]
             W[3, j] = W[1, j] * rate[0, j]
@@ -100,7 +101,7 @@ def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
                 ea2 = ea * ea * x_e2d[j]
                 eb2 = eb * eb * x_e2d[j]
                 jj = n + j
-                W[0, jj] = (ea2 + eb2) * inv4[j] * coef[1, j]
+                W[0, jj] = (ea2 + eb2) * inv4[j] * coef[1, j] * hx[j]
                 W[1, jj] = (ea2 - eb2) * inv4[j] * coef[1, j]
                 W[2, jj] = W[0, jj] * rate[1, j]
                 W[3, jj] = W[1, jj] * rate[1, j]
@@ -256,7 +257,7 @@ def warm_up() -> None:
     one, z1, z3 = np.ones(1), np.zeros(1), np.zeros((3, 1))
     pv = np.ones(29)
     body_flow_arrays(one, one, z1, np.ones((2, 1)), np.ones((2, 1)), z1, one, one, 10.0, 0.0, 1.0, 0.0, z1,
-                     np.zeros(3))
+                     np.zeros(3), one, one)
     x, tau = np.zeros(6), np.zeros((3, 3))
     for has in (True, False):
         hydro_load(pv, 0.0, 0.0, 0.0, has, z1, one, z1, z1, z1, z1)

@@ -219,12 +219,24 @@ class BodyFlow:
         return self.xs, self.wts, self.u[i], self.w[i], self.ax[i], self.az[i]
 
 
-def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
+def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray],
+              current_x: float = 0.0) -> BodyFlow:
     """The sea's flow at the strips of a body at pose η = [x, z, θ], at time(s) t.
 
     Each strip at body position x' sits at earth (x + x' cos θ, z − x' sin θ);
     its NED velocity and acceleration are rotated into the body frame by R_y(θ)ᵀ.
+    ``current_x`` (m/s, NED north) is a steady, depth-uniform current added to the
+    waves' velocity (its acceleration is zero), so the loads act on ν_r = ν − ν_p − ν_c.
     """
+    flow = _wave_flow(waves, eta, t, strips)
+    if current_x == 0.0:
+        return flow
+    uc, wc = ned_to_body(float(eta[2]), current_x, 0.0)
+    return BodyFlow(flow.xs, flow.wts, flow.u + uc, flow.w + wc, flow.ax, flow.az)
+
+
+def _wave_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
+    """The waves' flow of :func:`body_flow` (no current)."""
     xs, wts = strips
     th = float(eta[2])
     tt = np.atleast_1d(np.asarray(t, dtype=float))
@@ -232,7 +244,8 @@ def body_flow(waves: WaveComponents, eta, t, strips: tuple[np.ndarray, np.ndarra
         x_e2d, _, inv, inv4 = waves._depth_constants
         coef, rate = waves._series_constants
         out = kernels.body_flow_arrays(waves.k, waves.omega, waves.phase, coef, rate, x_e2d, inv, inv4,
-                                       waves.water_depth, float(eta[0]), float(eta[1]), th, xs, tt)
+                                       waves.water_depth, float(eta[0]), float(eta[1]), th, xs, tt,
+                                       waves.kx, waves.in_plane_or_ones)
         return BodyFlow(xs, wts, out[0], out[1], out[2], out[3])
     c, s = math.cos(th), math.sin(th)
     # Linear kinematics do not hold above the still surface: a breaching strip feels the surface flow.
@@ -392,7 +405,8 @@ def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * length * xi, 0.5 * wts
 
 
-def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple[np.ndarray, np.ndarray]):
+def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple[np.ndarray, np.ndarray],
+              current_x: float = 0.0):
     """The wave-induced load τ_E (N, N, N m) on a body at pose η moving with ν — paper Eq. 11, generalised.
 
     τ_E = F_h(ν, flow) − F_h(ν, still water) with F_h the :func:`hydrodynamic_load`:
@@ -401,9 +415,9 @@ def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple
     M_E = −∫ Z_E′(x′) x′ dx′ for pitch (the sign of r × F: a downward load ahead
     of the centre pitches the nose down; the paper prints it without), plus
     the Munk moment of the flow. ``t`` is a time or an array of T times
-    (result (3,) or (T, 3)).
+    (result (3,) or (T, 3)). ``current_x``: a steady current (m/s, NED north), see :func:`body_flow`.
     """
-    flow = body_flow(waves, eta, t, strips)
+    flow = body_flow(waves, eta, t, strips, current_x)
     u, w, q = (float(v) for v in nu)
     still = hydrodynamic_load_at(p, u, w, q, None)
     out = np.array([hydrodynamic_load_at(p, u, w, q, flow, i) - still for i in range(flow.u.shape[0])])

@@ -36,10 +36,12 @@ __all__ = [
     "G",
     "WaveComponents",
     "elevation",
+    "elevation_xy",
     "particle_acceleration",
     "particle_kinematics",
     "particle_kinematics_grid",
     "particle_velocity",
+    "pressure_head",
     "wavenumber",
 ]
 
@@ -78,6 +80,11 @@ class WaveComponents:
     amplitude: A_i (m); omega: ω_i (rad/s); k: wavenumber k_i (rad/m) on the
     finite-depth dispersion relation; phase: ε_i (rad) at t = 0, x = 0;
     water_depth: d (m); second_order: include the Stokes 2nd-order terms.
+    direction: None for a long-crested sea travelling in +x, or β_i (rad), each component's direction
+    of travel from +x in the horizontal plane (a short-crested sea). The plane y = 0 (the x–z plane of
+    the vehicle and the buoy) then sees the phase θ = k cos β x − ω t + ε, the vertical kinematics in
+    full and the in-plane part cos β of each horizontal velocity and acceleration; the cross-plane part
+    (sin β) is left out.
     """
 
     amplitude: np.ndarray
@@ -86,12 +93,28 @@ class WaveComponents:
     phase: np.ndarray
     water_depth: float
     second_order: bool = True
+    direction: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = np.shape(self.amplitude)
-        for name in ("omega", "k", "phase"):
+        for name in ("omega", "k", "phase") + (("direction",) if self.direction is not None else ()):
             if np.shape(getattr(self, name)) != n:
                 raise ValueError(f"WaveComponents.{name} has shape {np.shape(getattr(self, name))}, expected {n}")
+
+    @cached_property
+    def kx(self) -> np.ndarray:
+        """The wavenumber along x, k cos β (rad/m): k itself for a long-crested sea."""
+        return self.k if self.direction is None else self.k * np.cos(self.direction)
+
+    @cached_property
+    def in_plane(self) -> np.ndarray | None:
+        """cos β per component, the in-plane share of the horizontal kinematics; None when long-crested."""
+        return None if self.direction is None else np.cos(self.direction)
+
+    @cached_property
+    def in_plane_or_ones(self) -> np.ndarray:
+        """:attr:`in_plane`, or ones (× 1.0 is exact: the compiled kernel's long-crested input)."""
+        return np.ones(self.n) if self.direction is None else np.cos(self.direction)
 
     @classmethod
     def from_spectrum_lines(cls, amplitude, omega, phase, water_depth: float,
@@ -131,7 +154,7 @@ class WaveComponents:
 def _phase(c: WaveComponents, x, t) -> np.ndarray:
     x = np.asarray(x, dtype=float)[..., None]
     t = np.asarray(t, dtype=float)[..., None]
-    return c.k * x - c.omega * t + c.phase
+    return c.kx * x - c.omega * t + c.phase
 
 
 def _depth_factors_into(c: WaveComponents, s, ch: np.ndarray, sh: np.ndarray) -> None:
@@ -178,7 +201,25 @@ def elevation(c: WaveComponents, x, t) -> np.ndarray:
 
     ``x`` (m) and ``t`` (s) broadcast together; the result has their shape.
     """
+    return _elevation_of_phase(c, _phase(c, x, t))
+
+
+def elevation_xy(c: WaveComponents, x, y, t) -> np.ndarray:
+    """Surface elevation ζ(x, y, t) (m, up) anywhere on the horizontal plane (a wave-gauge array).
+
+    Component i travels at β_i (``c.direction``; 0 for a long-crested sea), phase
+    θ_i = k_i (x cos β_i + y sin β_i) − ω_i t + ε_i; on y = 0 this is :func:`elevation`.
+    ``x``, ``y`` (m) and ``t`` (s) broadcast together.
+    """
+    x, y, t = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float), np.asarray(t, dtype=float))
     th = _phase(c, x, t)
+    if c.direction is not None:
+        th = th + y[..., None] * (c.k * np.sin(c.direction))
+    return _elevation_of_phase(c, th)
+
+
+def _elevation_of_phase(c: WaveComponents, th: np.ndarray) -> np.ndarray:
+    """Σ A cos θ plus the Stokes self-interaction terms, given the phases θ (shape S + (N,))."""
     eta = np.cos(th) @ c.amplitude
     if c.second_order:
         xx = np.exp(-2.0 * c.k * c.water_depth)
@@ -187,21 +228,41 @@ def elevation(c: WaveComponents, x, t) -> np.ndarray:
     return eta
 
 
+def pressure_head(c: WaveComponents, x, depth, t) -> np.ndarray:
+    """Linear dynamic pressure head p_d/(ρ g) (m) at (x (m), depth s ≥ 0 (m, down), t (s)).
+
+    p_d/(ρ g) = Σ A_i K_p(k_i, s) cos θ_i with the pressure transfer function
+    K_p = cosh k(d − s)/cosh kd (finite depth d; deep water e^{−ks}; K_p = 1 at
+    the still surface). A pressure sensor at depth s reads p/(ρ g) = s + this
+    head (first order: the Stokes 2nd-order pressure is left out). The ratio is
+    evaluated as (e^{−ks} + e^{−k(2d−s)})/(1 + e^{−2kd}), so large kd cannot overflow.
+    ``x``, ``depth`` and ``t`` broadcast together; the result has their shape.
+    """
+    x, depth, t = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(depth, dtype=float),
+                                      np.asarray(t, dtype=float))
+    s = np.clip(depth, 0.0, c.water_depth)[..., None]
+    e2d = np.exp(-2.0 * c.k * c.water_depth)
+    kp = (np.exp(-c.k * s) + e2d * np.exp(c.k * s)) / (1.0 + e2d)
+    return (kp * np.cos(_phase(c, x, t))) @ c.amplitude
+
+
 def _kinematics_from_trig(c: WaveComponents, ct, st, depth):
     """Sum the velocity and acceleration series given cos θ, sin θ (shape S+(N,)) and depth (broadcastable)."""
     ch1, sh1, ch2, sh2 = _depth_factors(c, depth)
     aw = c.amplitude * c.omega
-    u = np.sum(ct * (ch1 * aw), axis=-1)
+    awx = aw if c.in_plane is None else aw * c.in_plane          # in-plane share of the horizontal terms
+    u = np.sum(ct * (ch1 * awx), axis=-1)
     w_up = np.sum(st * (sh1 * aw), axis=-1)
-    u_dot = np.sum(st * (ch1 * (aw * c.omega)), axis=-1)
+    u_dot = np.sum(st * (ch1 * (awx * c.omega)), axis=-1)
     w_up_dot = -np.sum(ct * (sh1 * (aw * c.omega)), axis=-1)
     if c.second_order:
         c2 = ct * ct - st * st
         s2 = 2.0 * st * ct
         b2 = 0.75 * c.omega * c.k * c.amplitude**2
-        u = u + np.sum(c2 * (ch2 * b2), axis=-1)
+        b2x = b2 if c.in_plane is None else b2 * c.in_plane
+        u = u + np.sum(c2 * (ch2 * b2x), axis=-1)
         w_up = w_up + np.sum(s2 * (sh2 * b2), axis=-1)
-        u_dot = u_dot + np.sum(s2 * (ch2 * (2.0 * c.omega * b2)), axis=-1)
+        u_dot = u_dot + np.sum(s2 * (ch2 * (2.0 * c.omega * b2x)), axis=-1)
         w_up_dot = w_up_dot - np.sum(c2 * (sh2 * (2.0 * c.omega * b2)), axis=-1)
     return u, -w_up, u_dot, -w_up_dot
 
@@ -236,7 +297,7 @@ def particle_kinematics_grid(c: WaveComponents, x, depth, t):
     t = np.asarray(t, dtype=float)
     orders = 2 if c.second_order else 1
     P, T, N = x.size, t.size, c.n
-    a = np.multiply.outer(x, c.k)
+    a = np.multiply.outer(x, c.kx)
     a += c.phase                                     # (P, N)
     b = np.multiply.outer(t, c.omega)                # (T, N)
     # cos/sin of each order, laid out (2, rows, orders, N); order 2 by the double-angle formulas
@@ -254,6 +315,8 @@ def particle_kinematics_grid(c: WaveComponents, x, depth, t):
     W = np.empty((4, P, orders, N))
     _depth_factors_into(c, depth, W[0], W[1])
     W[:2] *= coef
+    if c.in_plane is not None:
+        W[0] *= c.in_plane                           # u (and so u̇): the in-plane share cos β
     np.multiply(W[:2], rate, out=W[2:])
     # Contract over (order, component) in one matrix product per term: (4P, ON) @ (ON, T)
     Wc = (W * ta[0]).reshape(4 * P, orders * N)

@@ -219,7 +219,8 @@ def _write_outputs(spec: CampaignSpec, rows: list[dict[str, Any]], out: Path, pl
     """missions.parquet/.csv, summary.json and (optionally) the figures."""
     write_tables(rows, out)
     summary = summarise_campaign(rows, spec.cases, [v.name for v in spec.variants], spec.baseline,
-                                 spec.bootstrap_resamples, spec.bootstrap_seed)
+                                 spec.bootstrap_resamples, spec.bootstrap_seed,
+                                 {v.name: v.baseline for v in spec.variants if v.baseline})
     summary.update(campaign=spec.name, missions=len(spec.tasks()),
                    done=sum(r.get("status") == "ok" for r in rows),
                    failed=sum(r.get("status") != "ok" for r in rows))

@@ -50,7 +50,11 @@ _VARIANT_ITEM = {
     "controller": Field("choice", choices=CONTROLLERS),
     "forecast": Field("choice", choices=FORECAST_SOURCES, default="oracle", required=False),
     "snr_db": Field("float", lo=-20.0, hi=80.0, required=False, doc="oracle forecast error (dB); absent: exact"),
+    "true_vehicle": Field("str", required=False, doc="plant-only vehicle override in configs/vehicle/true/"),
+    "baseline": Field("str", required=False, doc="this variant's own baseline (default: the campaign's)"),
 }
+_BY_HAND = ("overrides", "sea", "dswp")
+"""Variant keys holding free mappings, checked by hand: parameters, sea config keys, DSWP options."""
 
 CAMPAIGN_SCHEMA = {
     "name": Field("str", default="campaign", required=False),
@@ -77,6 +81,10 @@ class Variant:
     forecast: str = "oracle"
     snr_db: float | None = None
     overrides: Mapping[str, float] = field(default_factory=dict)
+    sea: Mapping[str, Any] = field(default_factory=dict)       # sea config dotted keys (world errors)
+    true_vehicle: str | None = None                             # plant-only vehicle override
+    dswp: Mapping[str, Any] = field(default_factory=dict)      # DSWP forecaster options
+    baseline: str | None = None                                 # the variant it is compared with (None: campaign's)
 
 
 @dataclass(frozen=True)
@@ -114,20 +122,21 @@ class CampaignSpec:
         return [CampaignTask(f"{case}:{v.name}:{seed}", v.name,
                              RunSpec(case=case, controller=v.controller, snr_db=v.snr_db, seed=seed,
                                      duration=self.duration, mission=self.mission, vehicle=self.vehicle,
-                                     forecast=v.forecast, overrides=dict(v.overrides)))
+                                     forecast=v.forecast, overrides=dict(v.overrides), sea=dict(v.sea),
+                                     true_vehicle=v.true_vehicle, dswp=dict(v.dswp)))
                 for case in self.cases for v in self.variants for seed in self.seeds]
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready description (written beside the results)."""
         d = asdict(self)
-        d["variants"] = [dict(asdict(v), overrides=dict(v.overrides)) for v in self.variants]
+        d["variants"] = [dict(asdict(v), overrides=dict(v.overrides), sea=dict(v.sea), dswp=dict(v.dswp))
+                         for v in self.variants]
         return d
 
 
 def spec_hash(spec: RunSpec) -> str:
     """A short digest of every RunSpec field: a journal row counts as done only for the same spec."""
-    d = asdict(spec)
-    d["overrides"] = dict(sorted(spec.overrides.items()))
+    d = spec.as_record()
     return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -180,6 +189,55 @@ def _overrides(raw: Any, file: str, key: str) -> dict[str, float]:
     return out
 
 
+def _flat_mapping(raw: Any, file: str, key: str) -> dict[str, Any]:
+    """A mapping of option names to values, nested mappings flattened to dotted keys
+    (``{buoy: {dropout: 0.1}}`` and ``{buoy.dropout: 0.1}`` are the same)."""
+    if raw is None:
+        return {}
+    if not isinstance(raw, Mapping):
+        raise ConfigError(file, key, f"got {raw!r:.60}; allowed: a mapping of option names to values")
+    out: dict[str, Any] = {}
+    for name, value in raw.items():
+        if isinstance(value, Mapping):
+            out.update({f"{name}.{k}": v for k, v in _flat_mapping(value, file, f"{key}.{name}").items()})
+        else:
+            out[str(name)] = value
+    return out
+
+
+def _check_world(v: Variant, file: str, key: str) -> None:
+    """A variant's DSWP options and true vehicle, checked now so a bad one fails the campaign, not its missions."""
+    from bridge.schemas import load_true_vehicle
+    try:
+        RunSpec(controller=v.controller, forecast=v.forecast, dswp=v.dswp)
+    except ValueError as exc:
+        raise ConfigError(file, f"{key}.dswp", str(exc)) from None
+    if v.true_vehicle:
+        try:
+            load_true_vehicle(v.true_vehicle)
+        except ConfigError as exc:
+            raise ConfigError(file, f"{key}.true_vehicle", str(exc)) from None
+
+
+def _check_baselines(variants: Sequence[Variant], file: str) -> None:
+    names = {v.name for v in variants}
+    for i, v in enumerate(variants):
+        if v.baseline is not None and (v.baseline not in names or v.baseline == v.name):
+            raise ConfigError(file, f"variants[{i}].baseline", f"got {v.baseline!r}; allowed: another variant's name")
+
+
+def _check_sea_overrides(variants: Sequence[Variant], cases: Sequence[str], file: str) -> None:
+    """Each variant's ``sea`` keys applied to each sea state's config and validated there."""
+    from sitl.sea import load_sea_config
+    for i, v in enumerate(variants):
+        if v.sea:
+            for case in cases:
+                try:
+                    load_sea_config(case, v.sea)
+                except ConfigError as exc:
+                    raise ConfigError(file, f"variants[{i}].sea", str(exc)) from None
+
+
 def _case(name: str, base: Path, file: str, key: str) -> str:
     """A sea state name, or a path made absolute (relative paths are taken from the campaign file's folder)."""
     p = Path(name)
@@ -204,12 +262,15 @@ def _variants(items: Sequence[Mapping[str, Any]], raw_items: list, file: str) ->
         if not re.match(r"^[A-Za-z0-9_.+-]+$", v["name"]):
             raise ConfigError(file, f"{key}.name", f"got {v['name']!r}; allowed: letters, digits and _ . + -")
         variant = Variant(v["name"], v["controller"], v["forecast"], v["snr_db"],
-                          _overrides(raw.get("overrides"), file, f"{key}.overrides"))
+                          _overrides(raw.get("overrides"), file, f"{key}.overrides"),
+                          _flat_mapping(raw.get("sea"), file, f"{key}.sea"), v["true_vehicle"],
+                          _flat_mapping(raw.get("dswp"), file, f"{key}.dswp"), v["baseline"])
         try:
             RunSpec(controller=variant.controller, snr_db=variant.snr_db, forecast=variant.forecast)
         except ValueError as exc:
             raise ConfigError(file, f"{key}.snr_db" if variant.snr_db is not None else f"{key}.forecast",
                               str(exc)) from None
+        _check_world(variant, file, key)
         out.append(variant)
     if not out:
         raise ConfigError(file, "variants", "allowed: a non-empty list of variants")
@@ -226,7 +287,7 @@ def parse_campaign(data: Any, file: str, base: Path) -> CampaignSpec:
     raw_variants = data.get("variants")
     rest = {k: v for k, v in data.items() if k != "seeds"}
     if isinstance(raw_variants, list):
-        rest["variants"] = [{k: x for k, x in v.items() if k != "overrides"} if isinstance(v, Mapping) else v
+        rest["variants"] = [{k: x for k, x in v.items() if k not in _BY_HAND} if isinstance(v, Mapping) else v
                             for v in raw_variants]
     cfg = validate(rest, CAMPAIGN_SCHEMA, file)
     variants = _variants(cfg["variants"], raw_variants or [], file)
@@ -238,6 +299,8 @@ def parse_campaign(data: Any, file: str, base: Path) -> CampaignSpec:
     cases = tuple(_case(c, base, file, f"cases[{i}]") for i, c in enumerate(cfg["cases"]))
     if len(set(cases)) != len(cases):
         raise ConfigError(file, "cases", "a sea state is listed twice")
+    _check_baselines(variants, file)
+    _check_sea_overrides(variants, cases, file)
     n = len(cases) * len(seeds) * len(variants)
     if n > MAX_MISSIONS:
         raise ConfigError(file, "seeds", f"the grid has {n} missions; at most {MAX_MISSIONS}")

@@ -11,7 +11,6 @@ import os
 import shlex
 import subprocess
 import sys
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -54,16 +53,19 @@ def run_record(argv: list[str], spec: Any = None, seed: int | None = None, **ext
         "version": package_version(), "git_commit": git_commit(), "python": sys.version.split()[0], "seed": seed,
     }
     if spec is not None:
-        from bridge.schemas import load_mission_config, load_vehicle_config
+        from bridge.schemas import load_mission_config, load_true_vehicle, load_vehicle_config
         from firmware_py.params import load_params
         from sitl.sea import load_sea_config
 
         params = load_params()
         for name, value in spec.overrides.items():
             params.set(name, value)
-        doc.update(spec={**asdict(spec), "overrides": dict(spec.overrides)},
-                   configs={"sea": load_sea_config(spec.case), "mission": load_mission_config(spec.mission),
-                            "vehicle": load_vehicle_config(spec.vehicle)},
+        configs = {"sea": load_sea_config(spec.case, spec.sea), "mission": load_mission_config(spec.mission),
+                   "vehicle": load_vehicle_config(spec.vehicle)}
+        if spec.true_vehicle:
+            configs["true_vehicle"] = load_true_vehicle(spec.true_vehicle)
+        doc.update(spec=spec.as_record(),
+                   configs=configs,
                    parameters=params.as_dict(), parameter_overrides=dict(spec.overrides))
     doc.update(extra)
     return doc

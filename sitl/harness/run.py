@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -53,24 +54,38 @@ class DSWPFeeder:
     """The forecast service's DSWP mode, in process: every ``period_s`` of simulated time, predict
     the waves at the vehicle from the buoy's last ``window_s`` of record and hand the forecast to
     the firmware — what ``wavekeep forecast --mode dswp`` does over zenoh, without the network's
-    timing, so the result is deterministic. (The buoy has been recording before t = 0.)"""
+    timing, so the result is deterministic. (The buoy has been recording before t = 0.)
 
-    def __init__(self, sea: Sea, fw: Firmware, x_vehicle: float, period_s: float = 0.5, window_s: float = 120.0):
+    The other keywords are :func:`~bridge.dswp.predict_from_buoy`'s (``RunSpec.dswp``, defaults in
+    :data:`~sitl.harness.spec.DSWP_SCHEMA`). Lost buoy samples are fitted around; a window that
+    cannot be predicted from (too many lost) hands nothing over and is counted in ``failed``."""
+
+    def __init__(self, sea: Sea, fw: Firmware, x_vehicle: float, period_s: float = 0.5, window_s: float = 120.0,
+                 f_min: float = 0.05, f_max: float = 0.5, rel_threshold: float = 0.05, deep_water: bool = False,
+                 oversample: int = 2, horizon_s: float | None = None):
         self.sea, self.fw, self.x = sea, fw, float(x_vehicle)
         self.buoy = sea.buoy()
         self.period, self.window = float(period_s), float(window_s)
+        self.fit: dict[str, Any] = {"f_min": f_min, "f_max": f_max, "rel_threshold": rel_threshold,
+                                    "deep_water": deep_water, "oversample": int(oversample), "horizon_s": horizon_s}
         self._next = 0.0
         self.seq = 0
+        self.failed = 0
 
     def advance(self, t: float) -> None:
         if t + 1e-9 < self._next:
             return
         self._next = t + self.period
-        t_last = np.floor(t * self.buoy.sample_rate + 1e-9) / self.buoy.sample_rate   # newest sample
+        t_last = self.buoy.newest_stamp(t)    # the newest sample measured by now, on the buoy's clock
         tb, eta = self.buoy.record(t_last - self.window, t_last)
         self.seq += 1
-        self.fw.forecast.offer(predict_from_buoy(tb, eta, self.buoy.x, self.x, self.sea.water_depth,
-                                             window_s=self.window, oversample=2, seq=self.seq))
+        try:
+            f = predict_from_buoy(tb, eta, self.buoy.x, self.x, self.sea.water_depth, window_s=self.window,
+                                  seq=self.seq, allow_gaps=True, **self.fit)
+        except ValueError:
+            self.failed += 1
+            return
+        self.fw.forecast.offer(f)
 
 
 def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_eta=None,
@@ -80,7 +95,7 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
     ``params`` is the parameter table to start from (default: ``configs/firmware/params.yaml``);
     the spec's overrides go on top. ``clock`` paces the firmware (default: lockstep simulated time).
     """
-    sea = Sea.load(spec.case, seed=spec.seed)
+    sea = Sea.load(spec.case, seed=spec.seed, overrides=spec.sea)
     mcfg = load_mission_config(spec.mission)
     vcfg = load_vehicle_config(spec.vehicle)
     params = (params or load_params()).copy()
@@ -94,7 +109,7 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
     rate = mcfg["control_rate"]
     sp = mcfg["setpoint"]
     setpoint = np.array([sp["x"], sp["depth"], sp["pitch"]])
-    plant = Plant.from_configs(sea, spec.vehicle, spec.mission)
+    plant = Plant.from_configs(sea, spec.vehicle, spec.mission, spec.true_vehicle)
     if initial_eta is not None:
         plant.reset(eta=initial_eta)
     sensor_seed, forecast_seed = derive_seeds(sea.seed)
@@ -106,7 +121,7 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
         forecast = oracle_forecast(sea.components, spec.snr_db, np.random.default_rng(forecast_seed))
         fw.forecast.offer(forecast)
     elif spec.forecast_source == "dswp":
-        feeder = DSWPFeeder(sea, fw, setpoint[0])
+        feeder = DSWPFeeder(sea, fw, setpoint[0], **spec.dswp_options())
         feeder.advance(0.0)
     return MissionSetup(sea, plant, hal, fw, forecast, setpoint, rate,
                         mcfg["duration"] if spec.duration is None else float(spec.duration), sea.seed, feeder)

@@ -12,9 +12,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from typing import Any
 
-__all__ = ["CONTROLLERS", "FORECAST_SOURCES", "PAPER_CASES", "PAPER_VARIANTS", "RunSpec"]
+from bridge.configfile import ConfigError, Field, validate
+
+__all__ = ["CONTROLLERS", "DSWP_SCHEMA", "FORECAST_SOURCES", "PAPER_CASES", "PAPER_VARIANTS", "RunSpec"]
 
 CONTROLLERS = ("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob")
 """``cpd``: cascaded PD feedback alone; ``cpd_ff``: with the wave feed-forward (paper Eq. 12);
@@ -26,6 +29,21 @@ FORECAST_SOURCES = ("oracle", "dswp")
 ``dswp``: predicted from the up-wave buoy's record (deterministic sea wave prediction)."""
 
 MAX_SEED = 2**63 - 1
+
+DSWP_SCHEMA = {
+    "window_s": Field("float", lo=30.0, hi=600.0, default=120.0, doc="s of buoy record fitted"),
+    "f_min": Field("float", lo=0.01, hi=1.0, default=0.05, doc="Hz, lower edge of the fitted band"),
+    "f_max": Field("float", lo=0.05, hi=2.0, default=0.5, doc="Hz, upper edge of the fitted band"),
+    "rel_threshold": Field("float", lo=0.0, lo_open=True, hi=1.0, default=0.05,
+                           doc="keep bins above this fraction of the largest in-band amplitude"),
+    "deep_water": Field("bool", default=False, doc="predict with k = w^2/g (the authors' deliberate mismatch)"),
+    "oversample": Field("int", lo=1, hi=16, default=2, doc="frequencies fitted per DFT bin"),
+    "period_s": Field("float", lo=0.05, hi=10.0, default=0.5, doc="s between forecasts"),
+    "horizon_s": Field("float", lo=0.0, lo_open=True, hi=60.0, required=False,
+                       doc="s past the newest sample; absent: the group-velocity zone"),
+}
+"""The DSWP forecaster's options (``RunSpec.dswp``, a campaign variant's ``dswp``); the defaults are
+the in-process feeder's behaviour before they were options (docs/sea-errors.md gives the reasons)."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +59,9 @@ class RunSpec:
     vehicle: str = "bluerov2_heavy"
     forecast: str = "oracle"
     overrides: Mapping[str, float] = field(default_factory=dict)   # parameter NAME → value
+    sea: Mapping[str, Any] = field(default_factory=dict)           # sea config dotted key → value (world errors)
+    true_vehicle: str | None = None        # plant-only vehicle override (configs/vehicle/true/); None: nominal
+    dswp: Mapping[str, Any] = field(default_factory=dict)          # DSWP option → value (DSWP_SCHEMA)
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
@@ -57,6 +78,11 @@ class RunSpec:
         if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
             raise ValueError(f"duration must be a positive number of seconds, got {self.duration}")
         object.__setattr__(self, "overrides", dict(self.overrides))
+        object.__setattr__(self, "sea", dict(self.sea))
+        object.__setattr__(self, "dswp", dict(self.dswp))
+        if self.dswp and self.forecast_source != "dswp":
+            raise ValueError("DSWP options apply only to C-PD+FF with the dswp forecast")
+        self.dswp_options()   # validates
         if self.dob and self.overrides.get("WK_EKF_MODE", 1) != 1:
             raise ValueError("a disturbance observer needs the aided estimator's disturbance states (WK_EKF_MODE 1)")
 
@@ -72,6 +98,26 @@ class RunSpec:
         if self.dob:
             implied["WK_EKF_MODE"] = 1.0
         return implied
+
+    def as_record(self) -> dict[str, Any]:
+        """Every field as plain data, less the world-error fields left at their defaults (``sea``,
+        ``true_vehicle``, ``dswp``): a spec without them describes itself, and hashes, as before them."""
+        d = asdict(self)
+        d["overrides"] = dict(sorted(self.overrides.items()))
+        for key in ("sea", "true_vehicle", "dswp"):
+            if not d[key]:
+                del d[key]
+        return d
+
+    def dswp_options(self) -> dict[str, Any]:
+        """The DSWP forecaster's options: :data:`DSWP_SCHEMA`'s defaults with ``dswp`` on top (validated)."""
+        try:
+            opts = validate(self.dswp, DSWP_SCHEMA, "<run spec>", "dswp")
+        except ConfigError as exc:
+            raise ValueError(f"{exc.key}: {exc.message}") from None
+        if not opts["f_min"] < opts["f_max"]:
+            raise ValueError(f"dswp.f_max: got {opts['f_max']}; must be above dswp.f_min ({opts['f_min']})")
+        return opts
 
     @property
     def dob(self) -> bool:

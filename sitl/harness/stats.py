@@ -13,7 +13,7 @@ reduction averaged over every case and DoF of a seed (the paper's headline
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -76,8 +76,12 @@ def _index(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int], dict[st
 
 
 def summarise_campaign(rows: Sequence[dict[str, Any]], cases: Sequence[str], variants: Sequence[str],
-                       baseline: str, resamples: int = 10_000, seed: int = 0) -> dict[str, Any]:
+                       baseline: str, resamples: int = 10_000, seed: int = 0,
+                       baselines: Mapping[str, str] | None = None) -> dict[str, Any]:
     """Per (case, variant, DoF) statistics against ``baseline``, and each other variant's ``overall`` reduction.
+
+    ``baselines`` gives a variant a baseline of its own (a C-PD flown in the same perturbed world,
+    for an error that changes the plant and not only the forecast); the others use ``baseline``.
 
     ``rows`` are campaign rows (``case``, ``variant``, ``seed``, ``status``, ``rmse_<dof>``,
     ``max_abs_error_<dof>``); only ``ok`` rows count, paired by seed with the baseline's.
@@ -87,16 +91,18 @@ def summarise_campaign(rows: Sequence[dict[str, Any]], cases: Sequence[str], var
     groups: list[dict[str, Any]] = []
     per_seed: dict[str, dict[int, list[float]]] = {v: {} for v in variants}
     variants = [v for v in variants if v != baseline]
+    own = dict(baselines or {})
     for case in cases:
         for var in variants:
-            paired = [s for s in seeds if (case, var, s) in idx and (case, baseline, s) in idx]
+            base = own.get(var, baseline)
+            paired = [s for s in seeds if (case, var, s) in idx and (case, base, s) in idx]
             for dof in DOF:
-                b = [idx[(case, baseline, s)] for s in paired]
+                b = [idx[(case, base, s)] for s in paired]
                 v = [idx[(case, var, s)] for s in paired]
                 st = reduction_stats([r[f"rmse_{dof}"] for r in b], [r[f"rmse_{dof}"] for r in v],
                                      [r[f"max_abs_error_{dof}"] for r in b], [r[f"max_abs_error_{dof}"] for r in v],
                                      resamples, seed)
-                groups.append({"case": case, "variant": var, "dof": dof, **st})
+                groups.append({"case": case, "variant": var, "dof": dof, **st, **({"baseline": base} if own else {})})
                 for s, rb, rv in zip(paired, b, v, strict=True):
                     per_seed[var].setdefault(s, []).append(
                         float(_reduction(np.array([rb[f"rmse_{dof}"]]), np.array([rv[f"rmse_{dof}"]]))[0]))

@@ -17,6 +17,7 @@ def add_parsers(sub) -> None:
     o.add_controller(p)
     p.add_argument("--duration", type=o.duration, default=None, help="mission length (s); default: the mission's (600)")
     o.add_params(p)
+    o.add_world(p)
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     o.add_out(p)
     p.set_defaults(func=cmd_run)

@@ -213,7 +213,8 @@ def overrides(args: argparse.Namespace) -> dict[str, float]:
 
 
 _SPEC_OPTIONS = (("controller", "--controller"), ("forecast SNR", "--forecast-snr-db"), ("forecast", "--forecast"),
-                 ("seed", "--seed"), ("duration", "--duration"))
+                 ("seed", "--seed"), ("duration", "--duration"), ("DSWP options", "--dswp-set: DSWP options"),
+                 ("dswp.", "--dswp-set "))
 
 
 def run_spec(args: argparse.Namespace) -> Any:
@@ -226,10 +227,11 @@ def run_spec(args: argparse.Namespace) -> Any:
         raise UsageError("--forecast-snr-db applies only to --controller cpd_ff(_dob) with --forecast oracle "
                          f"(got --controller {args.controller} --forecast {forecast})")
     check_duration(getattr(args, "duration", None), args.mission)
+    world = world_options(args)
     try:
         return RunSpec(case=args.case, controller=args.controller, snr_db=snr, seed=args.seed,
                        duration=getattr(args, "duration", None), mission=args.mission, vehicle=args.vehicle,
-                       forecast=forecast, overrides=overrides(args))
+                       forecast=forecast, overrides=overrides(args), **world)
     except ValueError as exc:
         msg = str(exc)
         for key, option in _SPEC_OPTIONS:
@@ -237,6 +239,55 @@ def run_spec(args: argparse.Namespace) -> Any:
                 msg = option + msg[len(key):]
                 break
         raise UsageError(msg) from None
+
+
+def _key_values(items: list[str] | None, option: str) -> dict[str, Any]:
+    """``KEY=VALUE`` items, each value read as YAML (``10``, ``0.3``, ``true``)."""
+    import yaml
+
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip():
+            raise UsageError(f"{option} {item}: expected KEY=VALUE")
+        try:
+            out[key.strip()] = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise UsageError(f"{option} {item}: {text!r} is not a value") from None
+    return out
+
+
+def world_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The errors of docs/sea-errors.md a command's options ask for: ``sea``, ``true_vehicle``, ``dswp``
+    (checked here, so a bad one is a usage error naming the option)."""
+    from bridge.configfile import ConfigError
+    from bridge.schemas import load_true_vehicle
+    from sitl.sea import load_sea_config
+
+    sea = _key_values(getattr(args, "sea_set", None), "--sea-set")
+    dswp = _key_values(getattr(args, "dswp_set", None), "--dswp-set")
+    true_vehicle = getattr(args, "true_vehicle", None)
+    try:
+        if sea:
+            load_sea_config(args.case, sea)
+        if true_vehicle:
+            load_true_vehicle(true_vehicle)
+    except ConfigError as exc:
+        raise UsageError(f"{'--sea-set' if sea and exc.key else '--true-vehicle'}: {exc}") from None
+    return {"sea": sea, "true_vehicle": true_vehicle, "dswp": dswp}
+
+
+def add_world(p: argparse.ArgumentParser, vehicle: bool = True) -> None:
+    """--sea-set KEY=VALUE (and --true-vehicle, --dswp-set): the errors of docs/sea-errors.md."""
+    p.add_argument("--sea-set", action="append", default=None, metavar="KEY=VALUE",
+                   help="set one sea config key for this run (repeatable), e.g. buoy.noise_snr_db=10, "
+                   "current.speed=0.3, spreading.s=10, depth_sensor.dynamic_pressure=true (docs/sea-errors.md)")
+    if vehicle:
+        p.add_argument("--true-vehicle", default=None, metavar="NAME",
+                       help="plant-only vehicle override: a name in configs/vehicle/true/ or a path")
+        p.add_argument("--dswp-set", action="append", default=None, metavar="KEY=VALUE",
+                       help="one DSWP forecaster option (repeatable; --forecast dswp), e.g. window_s=60, "
+                       "deep_water=true")
 
 
 def add_common(p: argparse.ArgumentParser) -> None:

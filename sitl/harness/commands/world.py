@@ -10,6 +10,9 @@ SEA_COLUMNS = ("t_s", "eta_m", "u_m_per_s", "w_m_per_s_down")
 """``wavekeep sea`` CSV columns: time (s), elevation (m, up), horizontal and vertical particle velocity
 (m/s; w positive down, as the vehicle's z)."""
 
+ARRAY_COLUMNS = ("eta_g1_m", "eta_g2_m", "eta_g3_m")
+"""``wavekeep sea --array R``: the elevations (m, up) at three gauges on a triangle of radius R around the station."""
+
 OPENLOOP_COLUMNS = ("t", "x", "z", "theta", "u", "w", "q", "tauE_X", "tauE_Z", "tauE_M", "wave_eta")
 """``wavekeep openloop`` timeseries.csv columns: the names of the run's timeseries.csv (docs/results.md)."""
 
@@ -24,6 +27,10 @@ def add_parsers(sub) -> None:
     p.add_argument("--rate", type=o.positive, default=None, help="sample rate (Hz); default: the control rate")
     p.add_argument("--x", type=float, default=None, help="north position (m); default: the mission setpoint's")
     p.add_argument("--depth", type=float, default=None, help="depth (m, positive down); default: the mission's")
+    o.add_world(p, vehicle=False)
+    p.add_argument("--array", type=o.positive, default=None, metavar="R",
+                   help="also record a 2-D array: three gauges on a triangle of radius R (m) around the station "
+                   "(columns eta_g1..eta_g3), and print the directional estimate (mean direction, cos-2s s)")
     p.add_argument("--out", default="runs/sea.csv", help="CSV file to write (and its .png beside it)")
     p.set_defaults(func=cmd_sea)
 
@@ -45,7 +52,7 @@ def cmd_sea(args: argparse.Namespace) -> int:
     from sitl.sea import Sea
 
     out = o.check_out(args.out, kind="file")
-    sea = Sea.load(args.case, seed=args.seed)
+    sea = Sea.load(args.case, seed=args.seed, overrides=o.world_options(args)["sea"])
     mission = load_mission_config(args.mission)
     x = mission["setpoint"]["x"] if args.x is None else args.x
     depth = mission["setpoint"]["depth"] if args.depth is None else args.depth
@@ -56,22 +63,46 @@ def cmd_sea(args: argparse.Namespace) -> int:
     if n > 50_000_000:
         raise o.UsageError(f"--duration × --rate gives {n} samples; at most 50 million")
     t = np.arange(n) / rate
-    rows = np.empty((n, 4))
+    gauges = 0 if args.array is None else 3
+    rows = np.empty((n, 4 + gauges))
     for i in range(0, n, 2048):
         tt = t[i:i + 2048]
         u, wv, _, _ = particle_kinematics_grid(sea.components, [x], [depth], tt)
-        rows[i:i + 2048] = np.column_stack([tt, sea.elevation(x, tt), u[:, 0], wv[:, 0]])
+        rows[i:i + 2048, :4] = np.column_stack([tt, sea.elevation(x, tt), u[:, 0], wv[:, 0]])
+    columns: tuple[str, ...] = SEA_COLUMNS
+    if gauges:
+        columns = (*SEA_COLUMNS, *ARRAY_COLUMNS)
+        _array_record(sea, x, args.array, t, rows[:, 4:])
     out.parent.mkdir(parents=True, exist_ok=True)
     header = (f"# wavekeep sea: case={sea.name} seed={sea.seed} x={x} m depth={depth} m "
               f"Hs_target={sea.hs_target:.3f} m Hs_components={sea.hs():.3f} m components={sea.components.n}; "
-              "t s, eta m (up), u m/s, w m/s (positive down)\n" + ",".join(SEA_COLUMNS))
-    np.savetxt(out, rows, delimiter=",", header=header, comments="", fmt=("%.4f", "%.6f", "%.6f", "%.6f"))
+              "t s, eta m (up), u m/s, w m/s (positive down)"
+              + (f"; eta_g* m at a triangle of radius {args.array:g} m" if gauges else "") + "\n" + ",".join(columns))
+    np.savetxt(out, rows, delimiter=",", header=header, comments="", fmt=("%.4f",) + ("%.6f",) * (3 + gauges))
     from ..world_plots import plot_sea
     fig = plot_sea(sea, rows[:, 0], rows[:, 1], out.with_suffix(".png"))
     hs_real = 4.0 * float(np.std(rows[:, 1]))
     print(f"wrote {out}: {n} samples at {rate:g} Hz; Hs target {sea.hs_target:.3f} m, components "
           f"{sea.hs():.3f} m, realised 4·std(η) {hs_real:.3f} m; figure {fig}")
     return 0
+
+
+def _array_record(sea, x: float, radius: float, t, out) -> None:
+    """Fill ``out`` (T, 3) with the elevations at a triangle of gauges around (x, 0) and print the
+    directional estimate of the peak band [0.5, 2] f_p (:mod:`sitl.harness.directional`)."""
+    import numpy as np
+
+    from bridge.models.waves import elevation_xy
+
+    from ..directional import directional_moments, triangle_array
+
+    gx, gy = triangle_array(x, radius)
+    for i in range(0, t.size, 2048):
+        out[i:i + 2048] = elevation_xy(sea.components, gx[None, :], gy[None, :], t[i:i + 2048, None])
+    fp = sea.omega_peak / (2.0 * np.pi)
+    m = directional_moments(out, gx, gy, float(t[1] - t[0]), (0.5 * fp, 2.0 * fp))
+    print(f"array of radius {radius:g} m, band {0.5 * fp:.3f}-{2.0 * fp:.3f} Hz: mean direction "
+          f"{m['mean_direction_deg']:.1f} deg, r1 {m['r1']:.3f}, cos-2s s = {m['s']:.1f}")
 
 
 def cmd_openloop(args: argparse.Namespace) -> int:
