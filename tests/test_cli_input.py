@@ -150,3 +150,10 @@ def test_a_subprocess_error_is_one_line(tmp_path):
                            str(tmp_path / "r")], capture_output=True, text=True, timeout=120)
     assert (proc.returncode == 2 and proc.stderr.count("\n") == 1 and proc.stderr.startswith("wavekeep run: --seed")) \
         or proc.stderr.startswith("wavekeep run: argument --seed"), proc.stderr
+
+
+@pytest.mark.parametrize("cmd", ["sea", "forecast"])
+def test_vehicle_is_not_an_option_where_no_vehicle_flies(tmp_path, capsys, cmd):
+    refused(capsys, [cmd, "--vehicle", "bluerov2_heavy", "--out", str(tmp_path / "x.csv")] if cmd == "sea"
+            else [cmd, "--vehicle", "bluerov2_heavy"], "--vehicle")
+    assert not (tmp_path / "x.csv").exists()

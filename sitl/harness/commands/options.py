@@ -290,14 +290,16 @@ def add_world(p: argparse.ArgumentParser, vehicle: bool = True) -> None:
                        "deep_water=true")
 
 
-def add_common(p: argparse.ArgumentParser) -> None:
-    """--case, --seed, --mission, --vehicle."""
+def add_common(p: argparse.ArgumentParser, vehicle: bool = True) -> None:
+    """--case, --seed, --mission and (for commands that fly the vehicle) --vehicle."""
     p.add_argument("--case", default="W3", help="sea state: a name in configs/sea/ (W1, W2, W3) or a sea YAML path")
     p.add_argument("--seed", type=seed, default=None,
                    help="sea realisation (and, from it, sensor noise and forecast error), integer in [0, 2^63 - 1]; "
                    "default: the sea config's")
     p.add_argument("--mission", default="station_keeping", help="mission config: a name in configs/mission/ or a path")
-    p.add_argument("--vehicle", default="bluerov2_heavy", help="vehicle config: a name in configs/vehicle/ or a path")
+    if vehicle:
+        p.add_argument("--vehicle", default="bluerov2_heavy",
+                       help="vehicle config: a name in configs/vehicle/ or a path")
 
 
 def add_controller(p: argparse.ArgumentParser, forecast_help: str = "forecast source") -> None:

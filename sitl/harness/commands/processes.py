@@ -10,7 +10,7 @@ from . import options as o
 def add_parsers(sub) -> None:
     p = sub.add_parser("forecast", help="the wave forecast service (shore side) on zenoh",
                        description="The wave forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM.")
-    o.add_common(p)
+    o.add_common(p, vehicle=False)
     p.add_argument("--site", default=None, help="site name for the key expressions; default: configs/network.yaml's")
     p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
                    help="forecast source: oracle (the sea's own components) or dswp (from the up-wave buoy)")

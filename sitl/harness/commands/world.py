@@ -22,7 +22,7 @@ def add_parsers(sub) -> None:
                        description="Write the realised sea at the vehicle's station to CSV (t s, eta m, u m/s, "
                        "w m/s positive down) and FILE.png: the elevation record and its Welch PSD against the "
                        "target spectrum.")
-    o.add_common(p)
+    o.add_common(p, vehicle=False)
     p.add_argument("--duration", type=o.duration, default=600.0, help="record length (s)")
     p.add_argument("--rate", type=o.positive, default=None, help="sample rate (Hz); default: the control rate")
     p.add_argument("--x", type=float, default=None, help="north position (m); default: the mission setpoint's")
