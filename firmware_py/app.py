@@ -54,7 +54,7 @@ def parse_set_arg(text: str) -> tuple[str, float]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="wavekeep firmware", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="wavekeep firmware", description=__doc__.split("\n")[0].replace("``", ""))
     p.add_argument("--hal", type=_parse_hal, default=("127.0.0.1", 9002), help="sitl:HOST:PORT of the physics server")
     p.add_argument("--mavlink", action="append", help="MAVLink endpoint (repeatable); default udpout:127.0.0.1:14550")
     p.add_argument("--speedup", type=float, default=None,

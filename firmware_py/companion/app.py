@@ -32,7 +32,7 @@ STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="wavekeep companion", description=__doc__.split("\n")[0])
+    p = argparse.ArgumentParser(prog="wavekeep companion", description=__doc__.split("\n")[0].replace("``", ""))
     p.add_argument("--autopilot", default="udpin:127.0.0.1:14770",
                    help="MAVLink endpoint of the autopilot (a real vehicle: the BlueOS router's, e.g. "
                         "udpin:0.0.0.0:14770)")
