@@ -12,6 +12,10 @@
   the way. The command that makes each motor *reach* its demand f_d by the end
   of the period is f_cmd = (f_d − e^{−h/t_m} f̂) / (1 − e^{−h/t_m}), where f̂ is the
   firmware's model of the motor's present thrust.
+  The boost can exceed a thruster's range; clipping each thruster alone would
+  again lose the pitch moment, so with ``WK_MOT_LIM`` 1 the command's wrench
+  B f_cmd is re-allocated pitch first within ±``WK_THR_MAX`` (the rc companion:
+  an autopilot's sticks reach no further, ``docs/companion.md``).
 * Thrust → PWM through the inverse T200 curve (nominal), rounded to whole µs
   as an ESC takes them, 1100–1900 µs.
 
@@ -72,6 +76,9 @@ class MotorMixer:
         if p["WK_MOT_COMP"]:
             a = math.exp(-self.h / p["WK_MOT_TC"])
             f_cmd = (f_d - a * self.f_hat) / (1.0 - a)
+            if p["WK_MOT_LIM"]:
+                # The compensated command re-allocated pitch first: its boost never clips pitch away
+                f_cmd = self.allocate(self.B @ f_cmd, p["WK_THR_MAX"])
         else:
             f_cmd = f_d
         # Below WK_THR_MIN a thruster is sent neutral: the curve is flat at the dead band's edge,

@@ -178,6 +178,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_THR_MIN", 0.0, 5.0, "N", "thrust commands smaller than this are sent as neutral PWM"),
     ParamDef("WK_MOT_TC", 0.001, 2.0, "s", "nominal first-order motor time constant"),
     ParamDef("WK_MOT_COMP", 0, 1, "", "motor-lag compensation (paper Eq. 13) on (1) or off (0)", ptype="INT8"),
+    ParamDef("WK_MOT_LIM", 0, 1, "", "limit of the compensated command: 0 each thruster clipped at the PWM range, "
+             "1 its wrench re-allocated pitch first within WK_THR_MAX (the rc companion)", ptype="INT8"),
     # Estimator
     ParamDef("WK_EKF_Q_POS", 0.0, 10.0, "m/s^0.5", "process noise density on x and z"),
     ParamDef("WK_EKF_Q_ANG", 0.0, 10.0, "rad/s^0.5", "process noise density on pitch"),

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from ..app import parse_set_arg
 
-__all__ = ["main"]
+__all__ = ["companion_overrides", "main"]
 
 STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
 
@@ -135,6 +135,18 @@ def main(argv: list[str] | None = None) -> int:
         link.close()
 
 
+def companion_overrides(method: str, ff: bool) -> dict[str, float]:
+    """The parameters the companion runs with, whatever the parameter file says."""
+    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF
+    overrides = {"WK_FF_ENABLE": 1.0 if ff else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
+                 "FS_EKF_ACTION": 0.0, "WK_EKF_MODE": 0.0}
+    if method == "rc":
+        # ArduSub's mixer does not compensate motor lag: the companion does, and keeps the boosted command
+        # within what the sticks reach (±WK_THR_MAX a thruster), pitch first, so the autopilot never clips it
+        overrides["WK_MOT_LIM"] = 1.0
+    return overrides
+
+
 def _build(args, link, stop):
     """Parameters, commander, clock, HAL and the Firmware (the same control task as on the vehicle)."""
     from bridge.models.thrusters import T200Curve, ThrusterLayout
@@ -144,12 +156,7 @@ def _build(args, link, stop):
     from ..params import load_params
     from .commander import Commander
     from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL
-    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF
-    overrides = {"WK_FF_ENABLE": 1.0 if args.forecast == "zenoh" else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
-                 "FS_EKF_ACTION": 0.0, "WK_EKF_MODE": 0.0}
-    if args.method == "rc":
-        overrides.update(WK_MOT_COMP=0.0, WK_MOT_TC=0.001)   # the autopilot owns the motors (and their lag)
-    params = load_params(args.params, {**overrides, **dict(args.set)})
+    params = load_params(args.params, {**companion_overrides(args.method, args.forecast == "zenoh"), **dict(args.set)})
     vcfg, mcfg = load_vehicle_config(args.vehicle), load_mission_config(args.mission)
     layout, curve = ThrusterLayout.from_config(vcfg["thrusters"]), T200Curve.from_config(vcfg["thrusters"])
     model, tau_max = _stick_model(args, link, params)

@@ -5,8 +5,10 @@ Methods (``docs/companion.md``):
 * ``rc`` — RC_CHANNELS_OVERRIDE of ArduSub's pilot channels 1 (pitch),
   3 (throttle), 5 (forward) in MANUAL; ArduSub's mixer drives the thrusters.
   The wrench Wavekeep's controller wants is recovered from its mixer's thrusts
-  (τ = B f, the mixer runs without motor-lag compensation: the autopilot owns
-  the motors) and turned into sticks with the autopilot's stick model:
+  (τ = B f; the mixer compensates the motor lag, which ArduSub's does not, and
+  keeps the boosted command within ±``WK_THR_MAX`` a thruster, pitch first —
+  ``WK_MOT_LIM`` 1 — so the autopilot's mixer never has to clip a stick) and
+  turned into sticks with the autopilot's stick model:
   ``wavekeep`` (the stand-in: a full stick is ``WK_TAU_MAX_*``, read from the
   vehicle) or ``ardusub`` (Motors6DOF: each motor's output is linear in PWM,
   1500 + 400 · Σ factor · stick, so the sticks are the least-squares fit of the

@@ -45,8 +45,13 @@ METHODS = ("rc", "servo")
 
 
 def stand_in_args(method: str) -> list[str]:
-    """The stand-in ArduSub's settings for a method: its own control off, pass-through outputs for servo."""
-    args = ["--set", "WK_FF_ENABLE=0", "--set", "FS_GCS_ENABLE=0", "--no-forecast", "--companion-lockstep"]
+    """The stand-in ArduSub's settings for a method: its own control off; the aided EKF (IMU and DVL, as
+    ArduSub's EKF3, not a thrust model that cannot see the waves the companion's FF balances); rc: sticks to
+    PWM without motor-lag compensation, as ArduSub's mixer (the companion compensates); servo: pass-through."""
+    args = ["--set", "WK_FF_ENABLE=0", "--set", "FS_GCS_ENABLE=0", "--set", "WK_EKF_MODE=1", "--no-forecast",
+            "--companion-lockstep"]
+    if method == "rc":        # ArduSub's mixer turns sticks into PWM without motor-lag compensation
+        args += ["--set", "WK_MOT_COMP=0"]
     if method == "servo":
         for n in range(1, 9):
             args += ["--set", f"SERVO{n}_FUNCTION={58 + n}"]
