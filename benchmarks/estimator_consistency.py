@@ -42,7 +42,8 @@ def time_figure(out: Path, duration: float = 300.0) -> Path:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
     for col, controller in enumerate(("cpd", "cpd_ff")):
-        ts = run_mission(RunSpec("W1", controller, seed=1, duration=duration)).timeseries
+        ts = run_mission(RunSpec("W1", controller, seed=1, duration=duration,
+                                 overrides={"WK_EKF_MODE": 1})).timeseries
         k = ts[:, 0] > 5.0
         t = ts[k, 0]
         err = ts[k, COLUMN["x_hat"]:COLUMN["q_hat"] + 1] - ts[k, 1:7]
