@@ -6,7 +6,8 @@
    e²/σ² and the joint NIS per dof over time, as 10 s moving means, with the [0.5, 2] band.
 2. ``estimator_nees_seeds.png``: from a campaign's ``missions.jsonl`` (configs/campaign/estimator.yaml):
    every mission's mean NEES per state, and its share of errors within 2σ, by sea state and variant.
-3. With ``--table``: the campaign's table (markdown) per sea state and variant: mean RMSE over the three
+3. With ``--states``: per sea state and variant, each state's mean NEES, mean and worst share within 2σ, NIS.
+4. With ``--table``: the campaign's table (markdown) per sea state and variant: mean RMSE over the three
    DoF normalised by C-PD's per DoF, worst maximum error, total power (bootstrap 95 % intervals over
    seeds), and the estimator's acceptance figures (velocity error ratio, NEES range, 2σ share).
 """
@@ -41,7 +42,8 @@ def time_figure(out: Path, duration: float = 300.0) -> Path:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
     for col, controller in enumerate(("cpd", "cpd_ff")):
-        ts = run_mission(RunSpec("W1", controller, seed=1, duration=duration)).timeseries
+        ts = run_mission(RunSpec("W1", controller, seed=1, duration=duration,
+                                 overrides={"WK_EKF_MODE": 1})).timeseries
         k = ts[:, 0] > 5.0
         t = ts[k, 0]
         err = ts[k, COLUMN["x_hat"]:COLUMN["q_hat"] + 1] - ts[k, 1:7]
@@ -145,15 +147,38 @@ def campaign_table(campaign: Path) -> str:
     return "\n".join(lines)
 
 
+def states_table(campaign: Path) -> str:
+    """Per sea state and variant, over seeds: each state's mean NEES, the mean and the worst mission's share
+    of errors within 2σ, and the joint NIS per dof — the consistency columns of docs/estimator.md."""
+    rows = _rows(campaign)
+    head = (f"{'case':4s} {'variant':14s} {'n':>2s} " + " ".join(f"{s:>6s}" for s in STATES) + " | "
+            + " ".join(f"{s:>6s}" for s in STATES) + " | " + " ".join(f"{s:>6s}" for s in STATES) + " | NIS/dof")
+    lines = ["mean NEES | mean share within 2σ | worst mission's share within 2σ", head]
+    for case in sorted({r["case"] for r in rows}):
+        for v in sorted({r["variant"] for r in rows if r["case"] == case}):
+            dv = [r for r in rows if r["case"] == case and r["variant"] == v]
+            nees = [_col(dv, f"ekf_nees_{s}").mean() for s in STATES]
+            within = np.array([_col(dv, f"ekf_within_2sigma_{s}") for s in STATES])
+            nis = _col(dv, "ekf_nis_per_dof").mean()
+            lines.append(f"{case:4s} {v:14s} {len(dv):2d} " + " ".join(f"{x:6.2f}" for x in nees) + " | "
+                         + " ".join(f"{x:6.3f}" for x in within.mean(axis=1)) + " | "
+                         + " ".join(f"{x:6.3f}" for x in within.min(axis=1)) + f" | {nis:.2f}")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--campaign", type=Path, default=None, help="a finished estimator campaign's folder")
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
     p.add_argument("--duration", type=float, default=300.0, help="the time figure's missions (s)")
     p.add_argument("--table", action="store_true", help="only print the campaign's table (needs --campaign)")
+    p.add_argument("--states", action="store_true", help="only print the per-state consistency (needs --campaign)")
     a = p.parse_args(argv)
     if a.table and a.campaign is not None:
         print(campaign_table(a.campaign))
+        return
+    if a.states and a.campaign is not None:
+        print(states_table(a.campaign))
         return
     a.out.mkdir(parents=True, exist_ok=True)
     print(time_figure(a.out, a.duration))

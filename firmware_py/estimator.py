@@ -22,6 +22,13 @@ state. A directly measured channel whose readings have all been rejected for
 row cleared to the measurement noise), as ArduPilot's EKF resets to GPS after a
 timeout: a gate must not lock a good sensor out for ever once the model has been
 wrong for a while. docs/estimator.md has the design and its consistency checks.
+
+Aided, the process noise follows what the model leaves unexplained (``WK_EKF_QD_ADPT``,
+``WK_EKF_QI_*``): the disturbance's density by covariance matching on its estimate's change,
+scaled per axis by the accelerometer's and gyro's normalised innovations, and the pitch's random
+walk by the pitch sensor's innovations summed over blocks. The accelerometer does not correct θ
+(``WK_EKF_ACC_TH`` 0): its g sin θ term is a "consider" quantity (Schmidt update; S still carries θ's
+uncertainty), because a surge disturbance the random walk lags behind would otherwise leak into θ.
 """
 from __future__ import annotations
 
@@ -45,6 +52,9 @@ CHANNELS = ("position", "depth", "pitch", "pitch_rate", "dvl_u", "dvl_w", "accel
 """Measurement channels; the paper's mode uses the first four."""
 
 _ACCEL = slice(6, 8)
+_QI_CHANNELS = (6, 7, 3, 2)
+"""The channel whose innovations scale each adapted noise: the disturbance's X (f_x), Z (f_z), M (pitch rate)
+and the pitch's random walk (pitch)."""
 
 
 class _ModelEKF(ExtendedKalmanFilter):
@@ -93,6 +103,8 @@ class PlanarEKF:
         self._qd_param = np.zeros(3)                 # WK_EKF_QD_* (aided)
         self._dd_var: np.ndarray | None = None       # mean square change of d̂ per tick (adaptive Q_d)
         self._d_prev: np.ndarray | None = None
+        self._lam = np.ones(4)                       # innovation-driven scales on Q_d (X, Z, M) and Q_θ
+        self._blk = np.zeros(3)                      # pitch innovations' block: Σ y, Σ S, ticks
 
     # ------------------------------------------------------------------ state
     @property
@@ -123,7 +135,8 @@ class PlanarEKF:
 
     def initialise(self, frame: SensorFrame, x_fallback: float = 0.0) -> None:
         """Start from a sensor frame: measured states from it, velocities zero with 0.5 m/s 1-σ
-        (aided: the DVL's when it has a reading; the disturbance zero with 50 N, 50 N, 5 N m 1-σ)."""
+        (aided: the DVL's when it has a reading; the disturbance zero with 50 N, 50 N, 5 N m 1-σ, its noise
+        scales λ at ``WK_EKF_QI_INIT``, from which the innovations bring them down within seconds)."""
         p = self.params
         x = frame.x if np.isfinite(frame.x) else x_fallback
         pos_var = p["WK_EKF_R_POS"] ** 2 if np.isfinite(frame.x) else 100.0
@@ -137,6 +150,9 @@ class PlanarEKF:
             var += [50.0**2, 50.0**2, 5.0**2]
         self.kf.x = np.array(x0, dtype=float).reshape(-1, 1)
         self.kf.P = np.diag(var)
+        lam0 = p["WK_EKF_QI_INIT"] if p["WK_EKF_QI_ADPT"] else 1.0
+        self._lam = np.array([lam0] * 3 + [1.0])     # start loose: the start-up transient
+        self._blk[:] = 0.0
         self._last_accept_t[:] = frame.t
         self.initialised = True
 
@@ -159,7 +175,8 @@ class PlanarEKF:
 
     def _process_noise(self) -> np.ndarray:
         """Q = diag(q² h) from the WK_EKF_Q_* parameters, rebuilt only when one of them changes; aided,
-        the disturbance's density is adapted (``WK_EKF_QD_ADPT``, :meth:`_adapt`)."""
+        the disturbance's density is adapted (``WK_EKF_QD_ADPT``, :meth:`_adapt`) and it and the pitch's
+        variance are scaled by the innovation-driven λ (``WK_EKF_QI_ADPT``, :meth:`_adapt_to_innovations`)."""
         p, h = self.params, self.h
         names: tuple[str, ...]
         if not self.aided:
@@ -184,8 +201,9 @@ class PlanarEKF:
             qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), self._qd_param)
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
-        Qc, Mi = np.diag(qd**2), self.kf.vehicle.M_inv
+        Qc, Mi = np.diag(qd**2 * self._lam[:3]), self.kf.vehicle.M_inv
         Q = self._q.copy()
+        Q[2, 2] *= self._lam[3]
         Q[6:, 6:] = Qc * h
         Q[3:6, 6:] = Mi @ Qc * (h * h / 2.0)
         Q[6:, 3:6] = Q[3:6, 6:].T
@@ -201,6 +219,33 @@ class PlanarEKF:
             a = min(1.0, self.h / self.params["WK_EKF_QD_TC"])
             self._dd_var = self._dd_var + a * ((d - self._d_prev) ** 2 - self._dd_var)
         self._d_prev = d.copy()
+
+    def _adapt_to_innovations(self, y: np.ndarray, S: np.ndarray, avail: np.ndarray) -> None:
+        """Innovation-driven scales λ on the process noise (``WK_EKF_QI_*``), from the channel's normalised
+        innovation squared r, which a consistent filter keeps at E[r] = 1:
+        λ ← clip(λ exp(a (r − 1)), 1, ``WK_EKF_QI_MAX``), r clipped at the gate's square.
+
+        * The disturbance's variance per axis X, Z, M, from the channel that sees that axis' load at every
+          tick (f_x, f_z, gyro), a = h / ``WK_EKF_QI_TC``: λ rests at 1 (the covariance-matched Q_d) and
+          grows within a few ticks when the load changes faster than Q_d allows (a wave group).
+        * The pitch's random walk, from the pitch sensor's innovations summed over blocks of
+          ``WK_EKF_QI_BLK`` ticks, r = (Σ y)² / Σ S, a = block / ``WK_EKF_QI_TC_TH``. A consistent filter's
+          innovations are white, so r is χ²(1) whatever the block; a slow pitch error the model does not
+          explain (it follows the pitch motion: 3 % and a 15 ms lag of θ without a forecast) adds block² e²
+          to (Σ y)², where one tick's e² is lost in the sensor's noise."""
+        p = self.params
+        gate2 = p["WK_EKF_GATE"] ** 2
+        for i, ch in enumerate(_QI_CHANNELS[:3]):
+            if avail[ch]:
+                r = min(float(y[ch] ** 2 / S[ch]), gate2)
+                self._lam[i] = self._lam[i] * math.exp(self.h / p["WK_EKF_QI_TC"] * (r - 1.0))
+        if avail[_QI_CHANNELS[3]]:
+            self._blk += (float(y[_QI_CHANNELS[3]]), float(S[_QI_CHANNELS[3]]), 1)
+            if self._blk[2] >= p["WK_EKF_QI_BLK"]:
+                r = min(self._blk[0] ** 2 / self._blk[1], gate2)
+                self._lam[3] *= math.exp(self._blk[2] * self.h / p["WK_EKF_QI_TC_TH"] * (r - 1.0))
+                self._blk[:] = 0.0
+        np.clip(self._lam, 1.0, p["WK_EKF_QI_MAX"], out=self._lam)
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -294,19 +339,38 @@ class PlanarEKF:
         if accept.any():
             if reset.any():                       # a reset moved the state: predict the others again
                 hx, H = self._predicted(z)
-            self._fuse(z[accept].reshape(-1, 1), hx[accept].reshape(-1, 1), H[accept], np.diag(r[accept]))
+            self._fuse(z[accept].reshape(-1, 1), hx[accept].reshape(-1, 1), H[accept], np.diag(r[accept]),
+                       self._pitch_blind(accept))
         if self.aided:
             self._adapt()
+            if self.params["WK_EKF_QI_ADPT"]:
+                self._adapt_to_innovations(y, S, avail)
         return accept
 
-    def _fuse(self, z: np.ndarray, hx: np.ndarray, H: np.ndarray, R: np.ndarray) -> None:
+    def _pitch_blind(self, accept: np.ndarray) -> np.ndarray | None:
+        """Among the accepted channels, those whose gain on θ is held at zero (``WK_EKF_ACC_TH`` 0: the
+        accelerometer's), or None when every channel may correct θ."""
+        if not self.aided or self.params["WK_EKF_ACC_TH"]:
+            return None
+        blind = np.zeros(len(self.channels), dtype=bool)
+        blind[_ACCEL] = True
+        return blind[accept] if blind[accept].any() else None
+
+    def _fuse(self, z: np.ndarray, hx: np.ndarray, H: np.ndarray, R: np.ndarray,
+              pitch_blind: np.ndarray | None = None) -> None:
         """filterpy's ``ExtendedKalmanFilter.update(z, HJacobian=H, Hx=h(x), R)``, term by term and in its
-        arithmetic (Joseph form, scipy's inverse), without its per-call deep copies and closures."""
+        arithmetic (Joseph form, scipy's inverse), without its per-call deep copies and closures.
+
+        ``pitch_blind`` (aided, ``WK_EKF_ACC_TH`` 0) marks the channels whose gain on θ is set to zero: a
+        Schmidt ("consider") update. S keeps θ's share of their innovation (H is unchanged), and the Joseph
+        form P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ is the true covariance for any gain, so P stays honest."""
         kf = self.kf
         PHT = np.dot(kf.P, H.T)
         kf.S = np.dot(H, PHT) + R
         kf.SI = linalg.inv(kf.S)
         kf.K = PHT.dot(kf.SI)
+        if pitch_blind is not None:
+            kf.K[2, pitch_blind] = 0.0
         kf.y = np.subtract(z, hx)
         kf.x = kf.x + np.dot(kf.K, kf.y)
         I_KH = kf._I - np.dot(kf.K, H)

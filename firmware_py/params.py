@@ -202,6 +202,19 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_QD_TC", 0.1, 1000.0, "s", "aided mode: averaging time of the adaptive disturbance noise"),
     ParamDef("WK_EKF_QD_K", 0.1, 10.0, "", "aided mode: scale on the adapted disturbance noise density"),
     ParamDef("WK_EKF_D_TC", 0.0, 1000.0, "s", "aided mode: disturbance correlation time; 0 = random walk"),
+    ParamDef("WK_EKF_ACC_TH", 0, 1, "", "aided mode: the accelerometer corrects pitch (1) or is a Schmidt "
+             "'consider' measurement for it (0: zero gain on theta, its uncertainty kept in S)", ptype="INT8"),
+    ParamDef("WK_EKF_QI_ADPT", 0, 1, "", "aided mode: scale the disturbance's process noise per axis by the "
+             "normalised innovations of the accelerometer (X, Z) and gyro (M) (1) or not (0)", ptype="INT8"),
+    ParamDef("WK_EKF_QI_TC", 0.05, 100.0, "s", "aided mode: time constant of the innovation-driven noise scale"),
+    ParamDef("WK_EKF_QI_TC_TH", 0.05, 1000.0, "s", "aided mode: time constant of the pitch noise's "
+             "innovation-driven scale (the pitch sensor's innovations)"),
+    ParamDef("WK_EKF_QI_BLK", 1, 1000, "", "aided mode: ticks per block of pitch innovations for the pitch "
+             "noise's scale", ptype="INT16"),
+    ParamDef("WK_EKF_QI_INIT", 1.0, 1e6, "", "aided mode: the disturbance noise's innovation-driven scale at "
+             "initialisation (the start-up transient)"),
+    ParamDef("WK_EKF_QI_MAX", 1.0, 1e6, "", "aided mode: largest innovation-driven scale on the disturbance's "
+             "noise variance"),
     ParamDef("WK_EKF_R_DVL", 1e-5, 1.0, "m/s", "DVL velocity noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_ACC", 1e-4, 10.0, "m/s^2", "accelerometer noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_GATE", 1.0, 100.0, "sigma", "innovation gate: reject a measurement beyond this many sigma"),
