@@ -64,6 +64,13 @@ def _error(result: RunResult, dof: str, estimate: bool = False) -> np.ndarray:
     return (_col(result, est if estimate else truth) - _col(result, sp)) * scale
 
 
+def _preview_target(result: RunResult, dof: str) -> np.ndarray | None:
+    """The saturation preview's target offset for surge or heave (m), or None where it never acted."""
+    col = {"surge": "prv_x", "heave": "prv_z"}.get(dof)
+    prv = None if col is None else _col(result, col)
+    return prv if prv is not None and np.any(prv != 0.0) else None
+
+
 def _window(t: np.ndarray, window: tuple[float, float]) -> np.ndarray:
     """Boolean mask of t (s) within ``window`` clipped to the data; all of t if they do not overlap."""
     lo, hi = max(window[0], t.min()), min(window[1], t.max())
@@ -128,8 +135,9 @@ def _largest_event(result: RunResult, half_width: float = 15.0) -> tuple[str, fl
 def plot_run(result: RunResult, path: str | Path) -> Path:
     """Time history of one run as a PNG: wave elevation at the vehicle (m; plus the forecast's),
     surge, heave (depth) and pitch error (m, m, deg; truth thick, EKF estimate thin dashed,
-    setpoint dotted at zero), the commanded wrench per thruster group (N, N m) with thruster
-    saturation shaded red, and a zoom on the largest error event. Shaded blue: FF active.
+    setpoint dotted at zero, the saturation preview's shifted target where it acted), the commanded
+    wrench per thruster group (N, N m) with thruster saturation shaded red, and a zoom on the
+    largest error event. Shaded blue: FF active.
     """
     r = result.results
     t = _col(result, "t")
@@ -150,6 +158,8 @@ def plot_run(result: RunResult, path: str | Path) -> Path:
         ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.7, ls="--", label="EKF estimate")
         ax.plot(t, _error(result, dof), color="k", lw=1.2, label="truth")
         _zero_line(ax, "setpoint")
+        if (prv := _preview_target(result, dof)) is not None:
+            ax.plot(t, prv, color="tab:orange", lw=0.9, label="preview target")
         ax.set_ylabel(_DOF_AXES[dof][4])
     ax = axes[4]
     ax.plot(t, _col(result, "tau_X"), color="tab:red", lw=0.8, label="horizontal group τ_X (N)")
@@ -170,6 +180,8 @@ def plot_run(result: RunResult, path: str | Path) -> Path:
     _shade(ax, t[m], ff_on[m], "tab:blue", "FF active")
     ax.plot(t[m], _error(result, dof, estimate=True)[m], color="tab:green", lw=0.9, ls="--", label="EKF estimate")
     ax.plot(t[m], _error(result, dof)[m], color="k", lw=1.4, label="truth")
+    if (prv := _preview_target(result, dof)) is not None:
+        ax.plot(t[m], prv[m], color="tab:orange", lw=1.0, label="preview target (WK_PRV_*)")
     _zero_line(ax)
     ax.axvline(tk, color="tab:red", lw=0.8, ls=":")
     ax.set_title(f"zoom: largest {dof} error, t = {tk:.1f} s", fontsize=9)
