@@ -76,7 +76,8 @@ def test_live_udpin_port_in_use(capsys):
 
 
 def test_thrust_inputs(tmp_path, capsys):
-    refused(capsys, ["thrust", "--csv", str(tmp_path / "missing.csv")], "--csv", "no such file")
+    refused(capsys, ["thrust", "--csv", str(tmp_path / "missing.csv"), "--mavlink", "udpin:127.0.0.1:0"],
+            "--csv", "no such file")
     refused(capsys, ["thrust", "--mavlink", "bogus"], "--mavlink", "udpout:HOST:PORT")
     refused(capsys, ["thrust", "--amplitude", "5", "--mavlink", "udpin:127.0.0.1:0"], "--amplitude", "[-1, 1]")
     bad = tmp_path / "bad.csv"
@@ -157,3 +158,22 @@ def test_vehicle_is_not_an_option_where_no_vehicle_flies(tmp_path, capsys, cmd):
     refused(capsys, [cmd, "--vehicle", "bluerov2_heavy", "--out", str(tmp_path / "x.csv")] if cmd == "sea"
             else [cmd, "--vehicle", "bluerov2_heavy"], "--vehicle")
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_sim_takes_a_free_port_when_a_default_is_held(monkeypatch, capsys):
+    """`make run` while QGroundControl (or another sim) holds a default port: a free port, said so."""
+    import argparse
+
+    from sitl.harness.commands import processes
+    from sitl.harness.ports import free_port
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("127.0.0.1", 0))
+        taken = held.getsockname()[1]
+        spare = free_port()
+        monkeypatch.setitem(processes.SIM_PORTS, "--gcs-port", (taken, socket.SOCK_DGRAM, "GCS"))
+        monkeypatch.setitem(processes.SIM_PORTS, "--plant-port", (spare, socket.SOCK_DGRAM, "plant"))
+        ports = processes._sim_ports(argparse.Namespace(plant_port=None, gcs_port=None, zenoh_port=7000))
+    assert ports["--gcs-port"] != taken and ports["--plant-port"] == spare and ports["--zenoh-port"] == 7000
+    err = capsys.readouterr().err
+    assert f"port {taken} (GCS) is taken; using {ports['--gcs-port']}" in err

@@ -23,7 +23,6 @@ says what happened (0 done, 1 a child failed, 2 bad arguments or ports in use,
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import os
 import signal
@@ -42,6 +41,7 @@ from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.modes import Mode
 from sitl.sea import Sea
 
+from .ports import port_is_free
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
 from .run import write_run
@@ -72,17 +72,9 @@ class SimOptions:
 
 def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
     """A clear error (exit status 2) if a loopback port the run needs is taken."""
-    with socket.socket(socket.AF_INET, kind) as s:
-        if kind == socket.SOCK_STREAM:
-            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError as exc:
-            if exc.errno == errno.EADDRINUSE:
-                proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
-                raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options",
-                                  2) from None
-            raise
+    if not port_is_free(port, kind):
+        proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
+        raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options", 2)
 
 
 class _Child:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import socket
 import sys
 
 from . import options as o
@@ -37,9 +38,15 @@ def add_parsers(sub) -> None:
                    help="simulated seconds per wall-clock second; default: as fast as the CPU allows")
     p.add_argument("--duration", type=o.duration, default=None, help="mission length (s); default: the mission's (600)")
     o.add_params(p)
-    p.add_argument("--plant-port", type=o.port, default=9002, help="UDP port of the plant's JSON SITL server")
-    p.add_argument("--gcs-port", type=o.port, default=14550, help="UDP port the launcher (as GCS) listens on")
-    p.add_argument("--zenoh-port", type=o.port, default=7447, help="TCP port of the zenoh router")
+    p.add_argument("--plant-port", type=o.port, default=None,
+                   help=f"UDP port of the plant's JSON SITL server; default {SIM_PORTS['--plant-port'][0]}, "
+                   "or a free one if that is taken")
+    p.add_argument("--gcs-port", type=o.port, default=None,
+                   help=f"UDP port the launcher (as GCS) listens on; default {SIM_PORTS['--gcs-port'][0]}, "
+                   "or a free one if that is taken (e.g. by QGroundControl)")
+    p.add_argument("--zenoh-port", type=o.port, default=None,
+                   help=f"TCP port of the zenoh router; default {SIM_PORTS['--zenoh-port'][0]}, "
+                   "or a free one if that is taken")
     p.add_argument("--companion", nargs="?", const="rc", choices=("rc", "servo"), default=None,
                    help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
                         "ArduSub (docs/companion.md)")
@@ -52,22 +59,41 @@ def add_parsers(sub) -> None:
     sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)", add_help=False)
 
 
+SIM_PORTS = {"--plant-port": (9002, socket.SOCK_DGRAM, "plant"), "--gcs-port": (14550, socket.SOCK_DGRAM, "GCS"),
+             "--zenoh-port": (7447, socket.SOCK_STREAM, "zenoh")}
+"""``wavekeep sim``'s loopback ports: option → (default, socket kind, what uses it)."""
+
+
+def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
+    """The ports given, and for each left out its default, or a free port (said on stderr) if that is taken."""
+    from ..ports import port_or_free
+
+    ports = {}
+    for name, (default, kind, what) in SIM_PORTS.items():
+        given = getattr(args, name[2:].replace("-", "_"))
+        ports[name] = given if given is not None else port_or_free(default, kind)
+        if given is None and ports[name] != default:
+            print(f"wavekeep sim: port {default} ({what}) is taken; using {ports[name]} ({name})", file=sys.stderr)
+    return ports
+
+
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
     from ..launcher import LaunchError, SimOptions, launch
     from ..metrics import format_table
     from ..provenance import write_run_record
 
-    ports = {"--plant-port": args.plant_port, "--gcs-port": args.gcs_port, "--zenoh-port": args.zenoh_port}
-    names = list(ports)
+    given = {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
+    names = [name for name, port in given.items() if port is not None]
     for i, a in enumerate(names):
         for b in names[i + 1:]:
-            if ports[a] == ports[b]:
-                raise o.UsageError(f"{a} and {b} are both {ports[a]}: each process needs its own port")
+            if given[a] == given[b]:
+                raise o.UsageError(f"{a} and {b} are both {given[a]}: each process needs its own port")
+    ports = _sim_ports(args)
     spec = o.run_spec(args)
     out = o.check_out(args.out, force=args.force)
-    opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=args.plant_port,
-                     gcs_port=args.gcs_port, zenoh_port=args.zenoh_port)
+    opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
+                     gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"])
     try:
         if args.companion:
             from ..companion_launch import launch_companion
