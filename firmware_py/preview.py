@@ -18,7 +18,8 @@ with the firmware's own load model F_h (:func:`~bridge.models.vehicle.hydrodynam
 C-PD gains and robust FF law, and s(t) approaching the candidate at ``WK_PRV_RATE``. When
 the predicted largest excursion with no shift exceeds ``WK_PRV_THR``, the shift that
 minimises the largest excursion becomes the target offset (slew-limited at
-``WK_PRV_RATE``); otherwise the offset returns to zero. Unsaturated, the FF holds the
+``WK_PRV_RATE``), and stays chosen until that prediction falls below half the
+threshold; otherwise the offset returns to zero. Unsaturated, the FF holds the
 vehicle near the target, the predicted excursion is small and the preview never acts,
 so it costs nothing in moderate seas. It is a reference governor on the forecast: it
 changes where the controller aims, never the control law.
@@ -144,5 +145,10 @@ class SaturationPreview:
         zero = N_CANDIDATES // 2
         best = np.argmin(worst + 1e-3 * np.abs(cands), axis=0)   # ties: the smaller shift
         goal = cands[best, [0, 1]]
-        keep = (worst[zero] > p["WK_PRV_THR"]) & (worst[best, [0, 1]] < worst[zero] - 0.02)
+        # Hysteresis: once shifted, hold on until the unshifted prediction falls below half the threshold.
+        # The model under-predicts a saturated excursion (it holds pitch and the pose's flow), and
+        # releasing as soon as the pre-positioned vehicle looks safe would drop the shift just before
+        # the group arrives.
+        thr = np.where(self._goal != 0.0, 0.5, 1.0) * p["WK_PRV_THR"]
+        keep = (worst[zero] > thr) & (worst[best, [0, 1]] < worst[zero] - 0.02)
         return np.where(keep, goal, 0.0)
