@@ -97,7 +97,8 @@ class SaturationPreview:
     """The target offset (NED, m) that keeps a forecast saturating wave group's excursion smallest.
 
     ``h`` the control period (s), ``strips`` the firmware's strip nodes. State: the offset now
-    (body frame [x, z]), the offset it is slewing to, and when the preview next runs.
+    ([x, z] m: chosen in the body frame, applied to the NED target as is), the offset it is
+    slewing to, and when the preview next runs.
     """
 
     def __init__(self, vehicle: VehicleParams, params: ParameterTable, strips: tuple[np.ndarray, np.ndarray],
@@ -119,10 +120,7 @@ class SaturationPreview:
         """The offset [x, z, θ] (NED, m, m, rad) to add to the target this tick; zeros when off."""
         p = self.params
         if components is None or not p["WK_PRV_ENABLE"]:
-            if components is None:
-                self.reset()
-            else:
-                self.shift[:], self._goal[:] = 0.0, 0.0
+            self.reset()
             return np.zeros(3)
         if t >= self._next_t:
             self._next_t = t + p["WK_PRV_PERIOD"]
