@@ -94,6 +94,8 @@ class WaveFeedForward:
         self._obs_f: np.ndarray | None = None
         self._pred_f: np.ndarray | None = None
         self.weight = np.ones(3)
+        self.trust = 1.0                # the smallest weight, averaged over WK_FF_TRUST_TC
+        self.distrusted = False         # the forecast is set aside: FF, preview and the EKF's wave model off
 
     # ------------------------------------------------------------------ models
     def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
@@ -170,10 +172,11 @@ class WaveFeedForward:
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
         tau_ff = -tau_e_hat
+        weight = self.weight if not self.distrusted else np.zeros(3)
         if mode == 1:
             lim = np.array(self.params.axes("WK_FF_LIM")) * np.array(self.params.axes("WK_TAU_MAX"))
-            tau_ff = self.weight * np.clip(tau_ff, -lim, lim)
-        return FeedForwardOutput(tau_e_hat, tau_ff, True, self.weight.copy())
+            tau_ff = weight * np.clip(tau_ff, -lim, lim)
+        return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy())
 
     def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None) -> None:
         """Compare the predicted with the observed load over the last period; fade or restore the weights."""
@@ -197,3 +200,20 @@ class WaveFeedForward:
         # Fade within a few ticks, recover over WK_FF_MON_TC
         rate = np.where(target < self.weight, 1.0 - math.exp(-self.h / 0.1), 1.0 - math.exp(-self.h / tc))
         self.weight = self.weight + rate * (target - self.weight)
+        self._update_trust()
+
+    def _update_trust(self) -> None:
+        """Set the forecast aside while the monitor has faded some axis for most of ``WK_FF_TRUST_TC``.
+
+        A fade that lasts a wave group is the monitor at work; one that lasts many wave periods says the
+        forecast and the measured motion disagree for good (a depth reading with the waves' dynamic
+        pressure in it, docs/sea-errors.md). The three loads come from one flow at one pose, so then no
+        axis is trusted, nor the preview or the estimator's wave model that use the same flow: the
+        vehicle flies C-PD until the smallest weight's average is back above 0.75.
+        """
+        tc = self.params["WK_FF_TRUST_TC"]
+        if tc <= 0.0:
+            self.trust, self.distrusted = 1.0, False
+            return
+        self.trust += (1.0 - math.exp(-self.h / tc)) * (float(self.weight.min()) - self.trust)
+        self.distrusted = self.trust < (0.75 if self.distrusted else 0.5)

@@ -33,7 +33,7 @@ from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode
 from .params import RCIN_PASSTHROUGH, ParameterTable
 from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
-from .sensors import SensorFrame
+from .sensors import SensorFrame, wave_corrected_depth
 from .telemetry_snapshot import TelemetrySnapshot
 
 __all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
@@ -369,6 +369,9 @@ class Firmware:
         frame = self.hal.read_sensors()
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
+        active = self.forecast.current(t) if self.params["WK_BARO_WAVE"] and self.ekf.initialised else None
+        if active is not None and math.isfinite(frame.depth):   # the reading less the waves' dynamic pressure
+            frame = replace(frame, depth=wave_corrected_depth(frame.depth, active.components, self.ekf.x[0], t))
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
@@ -378,11 +381,12 @@ class Firmware:
         flow, seq = self.predicted_flow(t)
         ahead_flow = flow if not delay else self.predicted_flow(t + delay * self.h)[0]
         ff_active, ff_flow, ff = self._feedforward(ahead_flow)
-        if ff_flow is None:   # a forecast that could not be evaluated is no forecast for the estimator either
-            flow = None
+        trusted = not self.feedforward.distrusted
+        if ff_flow is None or not trusted:   # a forecast that cannot be evaluated, or that the monitor has
+            flow = None                      # faded, is no forecast for the estimator either
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
-        target = self.setpoint + self._preview_offset(ff_active, t)
+        target = self.setpoint + self._preview_offset(ff_active, t, trusted)
         control = self.controller.update(self._ahead(t), target, ff.tau_ff, self.h, d_hat)
         mix = self._mix(control, t)
         self._output(mix, flow, t)
@@ -421,10 +425,11 @@ class Firmware:
             ff_active, flow = False, None
         return ff_active, flow, ff
 
-    def _preview_offset(self, ff_active: bool, t: float) -> np.ndarray:
+    def _preview_offset(self, ff_active: bool, t: float, trusted: bool) -> np.ndarray:
         """The saturation preview's target offset (robust FF only, docs/feedforward.md); zeros otherwise."""
         active = self.forecast.current(t) if ff_active and int(self.params["WK_FF_MODE"]) == 1 else None
-        return self.preview.update(None if active is None else active.components, self.ekf.x, self.setpoint, t)
+        return self.preview.update(None if active is None else active.components, self.ekf.x, self.setpoint, t,
+                                   trusted)
 
     def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
         """The thruster outputs: neutral disarmed, a motor test, or the held axes' control + the pilot's."""

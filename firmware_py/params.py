@@ -163,6 +163,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_FF_MON_THR", 0.0, 2.0, "", "robust FF: predicted-observed load disagreement (fraction of "
              "tau_max) at which FF starts to fade; 0 disables the monitor"),
     ParamDef("WK_FF_MON_TC", 0.05, 20.0, "s", "robust FF: monitor filter time constant and weight recovery time"),
+    ParamDef("WK_FF_TRUST_TC", 0.0, 600.0, "s", "robust FF: averaging time of the monitor's smallest weight; "
+             "below 0.5 the forecast is set aside (FF, preview, EKF wave model) until above 0.75; 0 never"),
     ParamDef("WK_FF_W_MIN", 0.0, 1.0, "", "robust FF: smallest weight the monitor fades an axis to"),
     ParamDef("WK_PRV_ENABLE", 0, 1, "", "robust FF: saturation preview (pre-position the target ahead of a "
              "forecast load beyond tau_max) on (1) or off (0)", ptype="INT8"),
@@ -217,6 +219,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "noise variance"),
     ParamDef("WK_EKF_R_DVL", 1e-5, 1.0, "m/s", "DVL velocity noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_ACC", 1e-4, 10.0, "m/s^2", "accelerometer noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_BARO_WAVE", 0, 1, "", "subtract the forecast's linear dynamic pressure head at the estimated "
+             "pose from the depth reading (1), as a pressure sensor at sea needs, or not (0)", ptype="INT8"),
     ParamDef("WK_EKF_GATE", 1.0, 100.0, "sigma", "innovation gate: reject a measurement beyond this many sigma"),
     ParamDef("WK_EKF_RST_T", 0.05, 60.0, "s", "reset a channel to its measurement after this long all-rejected"),
     ParamDef("WK_EKF_CONV", 1e-4, 10.0, "m", "converged when position 1-sigma is below this"),

@@ -116,13 +116,19 @@ class SaturationPreview:
         self._next_t = -math.inf
 
     def update(self, components: WaveComponents | None, x_hat: np.ndarray, setpoint: np.ndarray,
-               t: float) -> np.ndarray:
-        """The offset [x, z, θ] (NED, m, m, rad) to add to the target this tick; zeros when off."""
+               t: float, trusted: bool = True) -> np.ndarray:
+        """The offset [x, z, θ] (NED, m, m, rad) to add to the target this tick; zeros when off.
+
+        ``trusted`` False (the FF monitor has faded the forecast) slews any shift back to zero: the
+        preview's model is the FF's, and a forecast that disagrees with the motion cannot place the target.
+        """
         p = self.params
         if components is None or not p["WK_PRV_ENABLE"]:
             self.reset()
             return np.zeros(3)
-        if t >= self._next_t:
+        if not trusted:
+            self._goal = np.zeros(2)
+        elif t >= self._next_t:
             self._next_t = t + p["WK_PRV_PERIOD"]
             self._goal = self._choose(components, x_hat, setpoint, t)
         step = p["WK_PRV_RATE"] * self.h

@@ -30,9 +30,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bridge.models.waves import WaveComponents, pressure_head
+
 from .params import ParameterTable
 
-__all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure", "specific_force"]
+__all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure", "specific_force",
+           "wave_corrected_depth"]
 
 ATM_PA = 101325.0          # Pa at the surface
 RHO_SEAWATER = 1025.0      # kg/m³
@@ -49,6 +52,24 @@ def specific_force(eta, nu, nu_dot, g: float = G0) -> np.ndarray:
     (the JSON SITL state's ``imu.accel_body``, :func:`bridge.json_sitl.state_message`)."""
     th, (u, w, q), (du, dw) = float(eta[2]), nu, nu_dot[:2]
     return np.array([du + q * w + g * math.sin(th), dw - q * u - g * math.cos(th)])
+
+
+def wave_corrected_depth(pressure_depth: float, components: WaveComponents, x: float, t: float) -> float:
+    """The depth (m, down) under forecast waves, from a pressure sensor's reading p/(ρ g) (m).
+
+    Under linear waves the reading is s + Σ A K_p(k, s) cos θ (:func:`bridge.models.waves.pressure_head`),
+    so the depth s solves s = p/(ρ g) − head(s). The fixed-point iteration from s = p/(ρ g) contracts by
+    |∂head/∂s| ≈ k·|head|, a few per cent in the seas of interest: it stops when a step moves s by less
+    than 0.1 mm (two or three steps), or after six. ``x`` (m, the wave frame's x, the estimated pose)
+    and ``t`` (s) place the forecast's phases.
+    """
+    s = pressure_depth
+    for _ in range(6):
+        s_next = pressure_depth - float(pressure_head(components, x, s, t))
+        if abs(s_next - s) < 1e-4:
+            return s_next
+        s = s_next
+    return s
 
 
 @dataclass(frozen=True)

@@ -266,13 +266,15 @@ def test_the_sea_errors_campaign_reaches_every_option():
     from sitl.harness.campaign_spec import load_campaign_spec
 
     c = load_campaign_spec(Path(__file__).resolve().parents[1] / "configs/campaign/sea_errors.yaml")
-    assert len(c.tasks()) == 3 * 20 * len(c.variants) == 1500 and c.duration == 600
+    assert len(c.tasks()) == 3 * 20 * len(c.variants) == 1560 and c.duration == 600
     by = {v.name: v for v in c.variants}
     assert by["ff_dswp_buoy10db"].sea == {"buoy.noise_snr_db": 10}
     assert by["ff_current03"].sea == {"current.speed": 0.3, "current.direction": 0}
     assert by["ff_am_p20"].true_vehicle == "added_mass_plus20" and by["ff_am_p20"].baseline == "cpd_am_p20"
     spec = next(t.spec for t in c.tasks() if t.variant == "ff_bar30")
-    assert spec.sea == {"depth_sensor.dynamic_pressure": True}
+    assert spec.sea == {"depth_sensor.dynamic_pressure": True} and spec.overrides == {"WK_BARO_WAVE": 1}
+    raw = next(t.spec for t in c.tasks() if t.variant == "ff_bar30_raw")
+    assert raw.sea == spec.sea and not raw.overrides and by["ff_bar30_raw"].baseline == "cpd_bar30"
 
 
 def test_world_options_leave_a_default_spec_and_its_hash_as_they_were():

@@ -1,0 +1,76 @@
+"""A depth reading with the waves' dynamic pressure in it: corrected by the forecast (WK_BARO_WAVE), and,
+left uncorrected, a forecast the FF monitor sets aside rather than let it hurt (WK_FF_TRUST_TC).
+
+Truth here is the linear pressure transfer function (bridge.models.waves.pressure_head, itself tested
+against cosh k(d − s)/cosh kd) and the plant's true depth, not a recorded run. docs/sea-errors.md.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from bridge.models.waves import pressure_head
+from firmware_py.sensors import wave_corrected_depth
+from sitl.harness.results import COLUMN
+from sitl.harness.run import run_mission
+from sitl.harness.spec import RunSpec
+from sitl.sea import Sea
+
+DYNAMIC = {"depth_sensor.dynamic_pressure": True}
+
+
+def test_the_corrected_depth_inverts_the_pressure_reading():
+    c = Sea.load("W3").components
+    depths = np.linspace(2.0, 10.0, 9)
+    worst_raw = 0.0
+    for t in np.linspace(100.0, 160.0, 13):
+        for s in depths:
+            reading = s + float(pressure_head(c, 1.5, s, t))
+            worst_raw = max(worst_raw, abs(reading - s))
+            assert wave_corrected_depth(reading, c, 1.5, t) == pytest.approx(s, abs=1e-3)
+    assert worst_raw > 0.5        # W3's head at these depths: the correction has work to do
+
+
+def _mission(overrides=None, sea=DYNAMIC, controller="cpd_ff", duration=60.0):
+    r = run_mission(RunSpec("W2", controller, seed=1, duration=duration, sea=sea, overrides=overrides or {}))
+    return r.timeseries
+
+
+def _rms(log, a, b="", after=5.0):
+    m = log[:, COLUMN["t"]] > after
+    d = log[m, COLUMN[a]] - (log[m, COLUMN[b]] if b else 0.0)
+    return float(np.sqrt(np.mean(d**2)))
+
+
+@pytest.fixture(scope="module")
+def raw_and_corrected():
+    return _mission(), _mission({"WK_BARO_WAVE": 1})
+
+
+def test_the_forecast_takes_the_dynamic_pressure_out_of_the_depth(raw_and_corrected):
+    raw, corrected = raw_and_corrected
+    # Uncorrected, the EKF believes the wave-driven reading; corrected, its depth is the plant's to centimetres
+    assert _rms(raw, "z_hat", "z") > 0.3
+    assert _rms(corrected, "z_hat", "z") < 0.05
+    assert _rms(corrected, "z", "sp_z") < 0.5 * _rms(raw, "z", "sp_z")
+    weights = corrected[:, [COLUMN["ff_w_X"], COLUMN["ff_w_Z"], COLUMN["ff_w_M"]]]
+    assert np.all(weights.min(axis=1) > 0.0)   # the corrected forecast is never set aside
+
+
+def test_a_forecast_that_disagrees_for_long_is_set_aside(raw_and_corrected):
+    raw, _ = raw_and_corrected
+    t = raw[:, COLUMN["t"]]
+    weights = raw[:, [COLUMN["ff_w_X"], COLUMN["ff_w_Z"], COLUMN["ff_w_M"]]]
+    off = np.all(weights == 0.0, axis=1)
+    assert not off[t < 5.0].any()              # trusted at first: a fade must last before it counts
+    assert off[t > 40.0].all()                 # then FF, on every axis, stays off
+    assert np.all(raw[t > 40.0][:, [COLUMN["tau_ff_X"], COLUMN["tau_ff_Z"], COLUMN["tau_ff_M"]]] == 0.0)
+    # Once set aside the vehicle flies as C-PD does in the same world
+    cpd = _mission(controller="cpd")
+    assert _rms(raw, "theta", after=40.0) < 1.1 * _rms(cpd, "theta", after=40.0)
+
+
+def test_a_nominal_sea_never_sets_the_forecast_aside():
+    log = _mission(sea={}, duration=120.0)
+    weights = log[:, [COLUMN["ff_w_X"], COLUMN["ff_w_Z"], COLUMN["ff_w_M"]]]
+    assert not np.all(weights == 0.0, axis=1).any()
