@@ -102,7 +102,8 @@ def markdown(doc: dict) -> str:
                 continue
             lo, hi = f["ci95_pct"]
             n = "" if f["seeds"] >= 20 else f" ({f['seeds']} seeds)"
-            cells.append(f"{f['reduction_pct_mean']:.1f} % [{lo:.1f}, {hi:.1f}], {100 * f['share_of_seeds_won']:.0f} %{n}")
+            won = 100 * f["share_of_seeds_won"]
+            cells.append(f"{f['reduction_pct_mean']:.1f} % [{lo:.1f}, {hi:.1f}], {won:.0f} %{n}")
             worse += [f"{c} {d}" for d in f["worse_in"]]
         lines.append(f"| {r['label']} | " + " | ".join(cells) + f" | {', '.join(worse) or 'none'} |")
     return "\n".join(lines)
