@@ -79,6 +79,7 @@ class StateReply:
     thrust: np.ndarray | None    # per-thruster thrust (N), when the server sends it
     frame_count: int | None      # the servo frame it answers, when the server says
     accel: np.ndarray | None = None   # specific force [f_x, f_z] (m/s², body FRD) from imu.accel_body, if sent
+    pressure_depth: float | None = None   # what the depth sensor reads, p/(ρ g) (m), when the world models it
 
 
 def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
@@ -116,12 +117,14 @@ def decode_servo_packet(data: bytes) -> ServoPacket | None:
 
 
 def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
-                  g: float, frame_count: int | None = None) -> dict[str, Any]:
+                  g: float, frame_count: int | None = None, pressure_depth: float | None = None) -> dict[str, Any]:
     """The JSON SITL state of a planar vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
 
     ``imu.accel_body`` is the specific force in body FRD,
     [u̇ + q w + g sin θ, 0, ẇ − q u − g cos θ] (≈ [0, 0, −g] at rest).
-    ``velocity`` is J(η)ν in NED.
+    ``velocity`` is J(η)ν in NED. ``pressure_depth`` (m), when the world models the waves' dynamic
+    pressure at the depth sensor, goes in ``wavekeep.pressure_depth``: ArduPilot's protocol has no
+    pressure field (its barometer follows ``position``), so only Wavekeep's HAL reads it.
     """
     x, z, theta = (float(v) for v in eta)
     u, w, q = (float(v) for v in nu)
@@ -143,6 +146,8 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
     }
     if frame_count is not None:
         msg["wavekeep"]["frame_count"] = int(frame_count)
+    if pressure_depth is not None:
+        msg["wavekeep"]["pressure_depth"] = float(pressure_depth)
     return msg
 
 
@@ -184,6 +189,11 @@ def decode_state(line: bytes | str) -> StateReply:
     wk = msg.get("wavekeep")
     thrust = None
     count = None
+    pressure_depth = None
+    if isinstance(wk, dict) and "pressure_depth" in wk:
+        pressure_depth = float(wk["pressure_depth"])
+        if not math.isfinite(pressure_depth):
+            raise ValueError("wavekeep.pressure_depth is not finite")
     if isinstance(wk, dict) and "eta" in wk and "nu" in wk:
         eta, nu = _vec(wk, "eta", 3), _vec(wk, "nu", 3)
         if "thrust" in wk:
@@ -206,4 +216,4 @@ def decode_state(line: bytes | str) -> StateReply:
     if isinstance(imu, dict) and "accel_body" in imu:
         a = _vec(imu, "accel_body", 3)
         accel = np.array([a[0], a[2]])
-    return StateReply(ts, eta, nu, thrust, count, accel)
+    return StateReply(ts, eta, nu, thrust, count, accel, pressure_depth)

@@ -87,7 +87,8 @@ class ServerCounters:
 def plant_state_message(plant, frame_count: int | None = None) -> dict:
     """The JSON SITL state of a plant (:func:`bridge.json_sitl.state_message`), ν̇ from ``plant.nu_dot``."""
     s = plant.state
-    return state_message(s.t, s.eta, s.nu, plant.nu_dot, s.thrust, float(plant.vehicle.g), frame_count)
+    return state_message(s.t, s.eta, s.nu, plant.nu_dot, s.thrust, float(plant.vehicle.g), frame_count,
+                         plant.pressure_depth)
 
 
 MAX_CATCH_UP = 100

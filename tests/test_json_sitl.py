@@ -259,9 +259,22 @@ def take_off(hal, fw, setpoint):
     assert result == 0, why
 
 
-def test_mission_over_json_sitl_is_identical_to_in_process(server):
+@pytest.mark.parametrize("sea_set", [{}, {"depth_sensor.dynamic_pressure": True}], ids=["nominal", "bar30_dynamic"])
+def test_mission_over_json_sitl_is_identical_to_in_process(sea_set):
+    """Lockstep over UDP equals the in-process mission, also when the depth sensor reads the waves'
+    dynamic pressure (sent in ``wavekeep.pressure_depth``)."""
     duration = 10.0
-    ref = run_mission(RunSpec("W1", "cpd_ff", duration=duration)).timeseries
+    ref = run_mission(RunSpec("W1", "cpd_ff", duration=duration, sea=sea_set)).timeseries
+    sea = Sea.load("W1", overrides=sea_set)
+    server = PhysicsServer(lambda: Plant.from_configs(sea), port=0)
+    server.start()
+    try:
+        _fly_and_compare(server, duration, ref)
+    finally:
+        server.stop()
+
+
+def _fly_and_compare(server, duration, ref):
     hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port))
     try:
         take_off(hal, fw, setpoint)
@@ -457,4 +470,9 @@ def test_state_line_round_trips_floats_exactly():
         line = encode_state(state_message(float(abs(v[0])), v[1:4], v[4:7], v[7:10], v[9:17], 9.81, 3))
         r = decode_state(line)
         assert r.timestamp == float(abs(v[0])) and np.array_equal(r.eta, v[1:4]) and np.array_equal(r.nu, v[4:7])
-        assert np.array_equal(r.thrust, v[9:17]) and r.frame_count == 3
+        assert np.array_equal(r.thrust, v[9:17]) and r.frame_count == 3 and r.pressure_depth is None
+    msg = state_message(1.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(8), 9.81, pressure_depth=5.123456789)
+    assert decode_state(encode_state(msg)).pressure_depth == 5.123456789
+    msg["wavekeep"]["pressure_depth"] = "deep"
+    with pytest.raises(ValueError):
+        decode_state(encode_state(msg))
