@@ -17,8 +17,8 @@ from typing import Any
 
 import yaml
 
-__all__ = ["ConfigError", "Field", "apply_overrides", "configs_dir", "load_config", "read_yaml", "resolve_config",
-           "validate"]
+__all__ = ["ConfigError", "Field", "apply_overrides", "configs_dir", "load_config", "parse_key_values", "read_yaml",
+           "resolve_config", "validate"]
 
 
 class ConfigError(ValueError):
@@ -235,3 +235,20 @@ def resolve_config(name_or_path: str | os.PathLike, kind: str) -> Path:
         f"no {kind} config named {str(name_or_path)!r}; known: {', '.join(known) or 'none'}, "
         "or give a path to a .yaml file",
     )
+
+
+def parse_key_values(items: Sequence[str] | None) -> dict[str, Any]:
+    """Command-line ``KEY=VALUE`` items as a dict, each value read as YAML (``10``, ``0.3``, ``true``).
+
+    ValueError names the item that is not ``KEY=VALUE`` or whose value is not YAML.
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, eq, text = item.partition("=")
+        if not eq or not key.strip():
+            raise ValueError(f"{item}: expected KEY=VALUE")
+        try:
+            out[key.strip()] = yaml.safe_load(text)
+        except yaml.YAMLError:
+            raise ValueError(f"{item}: {text!r} is not a value") from None
+    return out

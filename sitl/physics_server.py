@@ -282,7 +282,8 @@ class _RecordingPlant:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``wavekeep plant --case W3 [--seed N] [--port 9002] [--host 127.0.0.1]``."""
-    from bridge.configfile import ConfigError
+    from bridge.configfile import ConfigError, parse_key_values
+    from bridge.schemas import load_true_vehicle
 
     from .plant import Plant
     from .sea import Sea
@@ -299,12 +300,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--log", default=None, help="write the truth (t, η, ν, τ_E) after every step to this CSV at exit")
     ap.add_argument("--buoy-network", default=None,
                     help="publish the wave buoy's record on zenoh (network config name or path)")
+    ap.add_argument("--sea-set", action="append", default=None, metavar="KEY=VALUE",
+                    help="set one sea config key (repeatable), e.g. current.speed=0.3 (docs/sea-errors.md)")
+    ap.add_argument("--true-vehicle", default=None, metavar="NAME",
+                    help="plant-only vehicle override: a name in configs/vehicle/true/ or a path")
     args = ap.parse_args(argv)
 
     rows: list[list[float]] = []
     session = buoy = None
     try:
-        sea = Sea.load(args.case, seed=args.seed)
+        sea = Sea.load(args.case, seed=args.seed, overrides=parse_key_values(args.sea_set))
+        if args.true_vehicle:
+            load_true_vehicle(args.true_vehicle)       # a bad override fails here, not at the first hello
         if args.buoy_network:
             from bridge.zenoh_net import load_network_config, open_session
 
@@ -314,7 +321,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             buoy = BuoyPublisher(session, net["site"], sea)
 
         def factory():
-            plant = Plant.from_configs(sea, args.vehicle, args.mission)
+            plant = Plant.from_configs(sea, args.vehicle, args.mission, args.true_vehicle)
             if not (args.log or buoy):
                 return plant
             rows.clear()

@@ -62,6 +62,10 @@ def test_reproduce_refuses_and_leaves_no_folder(tmp_path, capsys):
     (["--plant-port", "14550", "--gcs-port", "14550"], ("--plant-port", "--gcs-port")),
     (["--plant-port", "0"], ("--plant-port", "1-65535")),
     (["--gcs-port", "70000"], ("--gcs-port",)),
+    (["--controller", "cpd_ff", "--forecast", "dswp", "--dswp-set", "window_s=60"],
+     ("--dswp-set", "window_s", "deep_water")),
+    (["--sea-set", "current.speed=9"], ("--sea-set", "current.speed")),
+    (["--true-vehicle", "no_such_vehicle"], ("--true-vehicle", "no_such_vehicle")),
 ])
 def test_sim_ports(tmp_path, capsys, argv, words):
     refused(capsys, ["sim", *argv, "--out", str(tmp_path / "s")], *words)
@@ -177,3 +181,13 @@ def test_sim_takes_a_free_port_when_a_default_is_held(monkeypatch, capsys):
     assert ports["--gcs-port"] != taken and ports["--plant-port"] == spare and ports["--zenoh-port"] == 7000
     err = capsys.readouterr().err
     assert f"port {taken} (GCS) is taken; using {ports['--gcs-port']}" in err
+
+
+def test_plant_refuses_bad_world_options(capsys):
+    from sitl.physics_server import main as plant_main
+
+    for argv, word in ((["--sea-set", "current.speed=9"], "current.speed"), (["--sea-set", "oops"], "KEY=VALUE"),
+                       (["--true-vehicle", "no_such_vehicle"], "no_such_vehicle")):
+        assert plant_main(["--port", "0", *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("wavekeep plant: ") and word in err and "Traceback" not in err

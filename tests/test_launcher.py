@@ -154,6 +154,21 @@ def test_sim_honours_the_mission_and_vehicle_configs(tmp_path):
         assert sim["rmse"][dof] == pytest.approx(v, abs=1e-9), dof
 
 
+def test_sim_takes_the_world_errors_and_equals_run(tmp_path):
+    """A sea's errors (current, spreading, the Bar30's dynamic pressure) and a true vehicle reach the plant and
+    the forecast service: the networked run equals the in-process one. (DSWP over the network is not
+    deterministic: its forecasts reach the vehicle when zenoh delivers them, docs/forecast.md.)"""
+    world = {"sea": {"current": {"speed": 0.3, "direction": 0}, "depth_sensor.dynamic_pressure": True,
+                     "spreading": {"s": 10, "direction": 20}}, "true_vehicle": "drag_plus20"}
+    spec = {"case": "W1", "controller": "cpd_ff", "duration": 4.0, "overrides": {"WK_BARO_WAVE": 1}}
+    sim = launch(options(tmp_path, **spec, **world))
+    ref = run_mission(RunSpec(**spec, **world))
+    nominal = run_mission(RunSpec(**spec))
+    for dof, v in ref.results["rmse"].items():
+        assert sim["rmse"][dof] == pytest.approx(v, abs=1e-9), dof
+    assert sim["rmse"] != pytest.approx(nominal.results["rmse"], abs=1e-6)   # the errors acted
+
+
 def test_the_tlog_is_in_vehicle_time_and_holds_both_directions(tmp_path):
     """A GCS .tlog: each frame stamped with the vehicle's clock (a 6 s mission spans 6 s, however fast it
     ran), the vehicle's messages and the ground station's own commands and heartbeats."""

@@ -191,15 +191,21 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path,
         "gossip_scouting": True, "scouting_delay_ms": 0}}))
     cli = [sys.executable, "-m", "sitl.harness.cli"]
     configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
+    # The world's errors (docs/sea-errors.md): the sea's keys reach the plant (and its buoy) and the forecast
+    sea_set = [a for k, v in spec.sea.items() for a in ("--sea-set", f"{k}={json.dumps(v)}")]
     if spec.ff:
         fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--forecast", spec.forecast,
-              "--network", str(netcfg), "--horizon", str(duration + 60.0)]
+              "--network", str(netcfg), "--horizon", str(duration + 60.0), *sea_set]
+        if spec.dswp.get("deep_water"):
+            fc.append("--deep-water")
         if spec.snr_db is not None:
             fc += ["--forecast-snr-db", str(spec.snr_db)]
         children.append(_Child("forecast", fc, out / "forecast.log", env))
         _wait_ready(children, opt.ready_timeout_s)
     plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
-             "--log", str(out / "plant_truth.csv")]
+             "--log", str(out / "plant_truth.csv"), *sea_set]
+    if spec.true_vehicle:
+        plant += ["--true-vehicle", spec.true_vehicle]
     if spec.ff:
         plant += ["--buoy-network", str(netcfg)]
     children.append(_Child("plant", plant, out / "plant.log", env))

@@ -242,19 +242,13 @@ def run_spec(args: argparse.Namespace) -> Any:
 
 
 def _key_values(items: list[str] | None, option: str) -> dict[str, Any]:
-    """``KEY=VALUE`` items, each value read as YAML (``10``, ``0.3``, ``true``)."""
-    import yaml
+    """``KEY=VALUE`` items, each value read as YAML (``10``, ``0.3``, ``true``); a usage error names ``option``."""
+    from bridge.configfile import parse_key_values
 
-    out: dict[str, Any] = {}
-    for item in items or []:
-        key, eq, text = item.partition("=")
-        if not eq or not key.strip():
-            raise UsageError(f"{option} {item}: expected KEY=VALUE")
-        try:
-            out[key.strip()] = yaml.safe_load(text)
-        except yaml.YAMLError:
-            raise UsageError(f"{option} {item}: {text!r} is not a value") from None
-    return out
+    try:
+        return parse_key_values(items)
+    except ValueError as exc:
+        raise UsageError(f"{option} {exc}") from None
 
 
 def world_options(args: argparse.Namespace) -> dict[str, Any]:

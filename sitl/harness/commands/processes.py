@@ -26,6 +26,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--horizon", type=o.positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
     p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
     p.add_argument("--network", default="network", help="network config: a name in configs/ or a path")
+    o.add_world(p, vehicle=False)
     p.set_defaults(func=cmd_forecast)
 
     p = sub.add_parser("sim", help="SITL: plant, forecast service and firmware as processes, flown over MAVLink",
@@ -38,6 +39,7 @@ def add_parsers(sub) -> None:
                    help="simulated seconds per wall-clock second; default: as fast as the CPU allows")
     p.add_argument("--duration", type=o.duration, default=None, help="mission length (s); default: the mission's (600)")
     o.add_params(p)
+    o.add_world(p)
     p.add_argument("--plant-port", type=o.port, default=None,
                    help=f"UDP port of the plant's JSON SITL server; default {SIM_PORTS['--plant-port'][0]}, "
                    "or a free one if that is taken")
@@ -91,6 +93,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 raise o.UsageError(f"{a} and {b} are both {given[a]}: each process needs its own port")
     ports = _sim_ports(args)
     spec = o.run_spec(args)
+    if set(spec.dswp) - {"deep_water"}:
+        raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
+                           "takes only deep_water; the other DSWP options are for `wavekeep run`")
     out = o.check_out(args.out, force=args.force)
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"])
@@ -128,7 +133,7 @@ def cmd_forecast(args: argparse.Namespace) -> int:
         raise o.UsageError("--forecast-snr-db applies only to --forecast oracle")
     net = load_network_config(args.network)
     site = args.site or net["site"]
-    sea = Sea.load(args.case, seed=args.seed)
+    sea = Sea.load(args.case, seed=args.seed, overrides=o.world_options(args)["sea"])
     oracle = None
     if args.forecast == "oracle":
         _, forecast_seed = derive_seeds(sea.seed)
