@@ -166,6 +166,37 @@ def states_table(campaign: Path) -> str:
     return "\n".join(lines)
 
 
+TODAY = {"cpd": "cpd", "cpd_dob": "cpd", "ff_exact": "ff_exact", "ff_dob_exact": "ff_exact",
+         "ff_15db": "ff_15db", "ff_dob_15db": "ff_15db"}
+"""Each variant of the estimator campaign → the variant, flown with the paper's estimator, it is compared with."""
+
+
+def versus_table(campaign: Path, today: Path) -> str:
+    """Power and RMSE of each variant against the same controller with the paper's estimator ("today"),
+    paired by (case, seed) over the seeds both campaigns flew: mean RMSE per DoF, total power, and the
+    paired power change in % with its bootstrap 95 % interval."""
+    rows, old = _rows(campaign), {(r["case"], r["variant"], r["seed"]): r for r in _rows(today)}
+    dofs = ("surge", "heave", "pitch")
+    lines = ["| case | variant | vs today's | n | RMSE x, z (m), θ (°): today → now | power (W): today → now "
+             "| power change (%) |", "|" + "---|" * 7]
+    for case in sorted({r["case"] for r in rows}):
+        for v in dict.fromkeys(r["variant"] for r in rows if r["case"] == case):
+            mine = [r for r in rows if r["case"] == case and r["variant"] == v
+                    and (case, TODAY.get(v), r["seed"]) in old]
+            pairs = sorted(((old[(case, TODAY[v], r["seed"])], r) for r in mine), key=lambda p: p[1]["seed"])
+            if not pairs:
+                continue
+            then, now = [p[0] for p in pairs], [p[1] for p in pairs]
+            rm = [(_col(then, f"rmse_{k}").mean(), _col(now, f"rmse_{k}").mean()) for k in dofs]
+            rm[2] = (np.degrees(rm[2][0]), np.degrees(rm[2][1]))
+            pw = [sum(_col(group, f"mean_power_w_{k}") for k in dofs) for group in (then, now)]
+            change = 100.0 * (pw[1] / pw[0] - 1.0)
+            lines.append(f"| {case} | {v} | {TODAY[v]} | {len(pairs)} | "
+                         + ", ".join(f"{a:.3f} → {b:.3f}" for a, b in rm)
+                         + f" | {pw[0].mean():.0f} → {pw[1].mean():.0f} | {_ci(change)} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--campaign", type=Path, default=None, help="a finished estimator campaign's folder")
@@ -173,7 +204,13 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--duration", type=float, default=300.0, help="the time figure's missions (s)")
     p.add_argument("--table", action="store_true", help="only print the campaign's table (needs --campaign)")
     p.add_argument("--states", action="store_true", help="only print the per-state consistency (needs --campaign)")
+    p.add_argument("--versus", type=Path, default=None,
+                   help="only print power and RMSE against this campaign's cpd/ff_exact/ff_15db flown with the "
+                   "paper's estimator (e.g. configs/campaign/robust_ff_30_seeds.yaml's folder; needs --campaign)")
     a = p.parse_args(argv)
+    if a.versus is not None and a.campaign is not None:
+        print(versus_table(a.campaign, a.versus))
+        return
     if a.table and a.campaign is not None:
         print(campaign_table(a.campaign))
         return
