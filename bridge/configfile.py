@@ -8,6 +8,7 @@ and what is allowed. Nothing is returned half-validated.
 """
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections.abc import Mapping, Sequence
@@ -164,10 +165,23 @@ def read_yaml(path: str | os.PathLike) -> Any:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise ConfigError(path, None, f"cannot read: {exc.strerror or exc}") from None
-    try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(path, None, f"not valid YAML: {exc}") from None
+    doc = _PARSED.get(text)
+    if doc is None:
+        try:
+            doc = yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ConfigError(path, None, f"not valid YAML: {exc}") from None
+        if len(_PARSED) >= _PARSED_MAX:
+            _PARSED.clear()
+        _PARSED[text] = doc
+    return copy.deepcopy(doc)
+
+
+_PARSED: dict[str, Any] = {}
+""":func:`read_yaml`'s parsed documents, keyed by the file's text (so an edited file is parsed again):
+a campaign worker builds each mission from the same six configs, and PyYAML's pure-Python parser
+took ≈ 0.2 s of every mission's set-up. Callers get a deep copy."""
+_PARSED_MAX = 256
 
 
 def apply_overrides(data: Any, overrides: Mapping[str, Any] | None, file=None) -> Any:
@@ -178,8 +192,6 @@ def apply_overrides(data: Any, overrides: Mapping[str, Any] | None, file=None) -
     """
     if not overrides:
         return data
-    import copy
-
     out = copy.deepcopy(data) if data is not None else {}
     if not isinstance(out, dict):
         raise ConfigError(file, None, f"expected a mapping, got {type(out).__name__}")

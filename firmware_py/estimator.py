@@ -105,6 +105,8 @@ class PlanarEKF:
         self._d_prev: np.ndarray | None = None
         self._lam = np.ones(4)                       # innovation-driven scales on Q_d (X, Z, M) and Q_θ
         self._blk = np.zeros(3)                      # pitch innovations' block: Σ y, Σ S, ticks
+        self._r_key: tuple | None = None             # measurement_noise()'s cache: (table, version, aided)
+        self._r = np.zeros(0)
 
     # ------------------------------------------------------------------ state
     @property
@@ -261,11 +263,16 @@ class PlanarEKF:
 
     # ------------------------------------------------------------------ update
     def measurement_noise(self) -> np.ndarray:
+        """R's diagonal: each channel's noise variance (m², rad², (rad/s)², (m/s)², (m/s²)²), recomputed
+        only when the parameter table has changed; a fresh array each call (callers may modify it)."""
         p = self.params
-        r = [p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]
-        if self.aided:
-            r += [p["WK_EKF_R_DVL"]] * 2 + [p["WK_EKF_R_ACC"]] * 2
-        return np.array(r) ** 2
+        key = (id(p), p.version, self.aided)
+        if key != self._r_key:
+            r = [p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]
+            if self.aided:
+                r += [p["WK_EKF_R_DVL"]] * 2 + [p["WK_EKF_R_ACC"]] * 2
+            self._r, self._r_key = np.array(r) ** 2, key
+        return self._r.copy()
 
     def _accel_model(self) -> tuple[np.ndarray, np.ndarray]:
         """The accelerometer's predicted specific force [f_x, f_z] and its Jacobian (2, 9) at the state,
@@ -297,7 +304,7 @@ class PlanarEKF:
         H = np.zeros((m, self.n))
         hx[:idx.size] = self.kf.x[idx, 0]
         H[np.arange(idx.size), idx] = 1.0
-        if self.aided and np.any(np.isfinite(z[_ACCEL])):
+        if self.aided and np.isfinite(z[_ACCEL]).any():
             hx[_ACCEL], H[_ACCEL] = self._accel_model()
         return hx, H
 
@@ -307,7 +314,7 @@ class PlanarEKF:
         if self.aided:
             z = np.concatenate([z, frame.aiding_vector()])
         if not self.initialised:
-            if np.all(np.isfinite(z[1:4])):
+            if np.isfinite(z[1:4]).all():
                 self.initialise(frame)
             return np.isfinite(z)
         r = self.measurement_noise()

@@ -124,6 +124,8 @@ class Firmware:
         self.feedforward = WaveFeedForward(vehicle, params, self.h)
         self.preview = SaturationPreview(vehicle, params, self.strips, self.h)
         self._ff_faded = False
+        self._passthrough_key: tuple[int, int] | None = None
+        self._passthrough_map: tuple[tuple[int, int], ...] = ()
         self.on_tick = on_tick
         self.last: TickRecord | None = None
         self.mode = Mode.MANUAL
@@ -281,13 +283,21 @@ class Firmware:
         """
         out: dict[int, int] = {}
         expiry = self.params["RC_OVERRIDE_TIME"]
-        for i in range(self.mixer.layout.n):
-            function = int(self.params[f"SERVO{i + 1}_FUNCTION"])
-            if function in RCIN_PASSTHROUGH:
-                pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
-                fresh = expiry < 0 or t - since <= expiry
-                out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US
+        for i, function in self._passthrough_functions():
+            pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
+            fresh = expiry < 0 or t - since <= expiry
+            out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US
         return out
+
+    def _passthrough_functions(self) -> tuple[tuple[int, int], ...]:
+        """(output index, SERVOn_FUNCTION) of the outputs set to RCIN9–16, read from the parameter table
+        again only when it has changed (its ``version``): the control task asks every tick."""
+        key = (id(self.params), self.params.version)
+        if key != self._passthrough_key:
+            functions = (int(self.params[f"SERVO{i + 1}_FUNCTION"]) for i in range(self.mixer.layout.n))
+            self._passthrough_map = tuple((i, f) for i, f in enumerate(functions) if f in RCIN_PASSTHROUGH)
+            self._passthrough_key = key
+        return self._passthrough_map
 
     def motor_test(self, motor: int, pwm: int, timeout_s: float) -> MAV_RESULT:
         """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it)."""
@@ -345,11 +355,11 @@ class Firmware:
 
     def _announce_fade(self, weight: np.ndarray) -> None:
         """STATUSTEXT when the FF monitor fades an axis below half weight, and when all recover."""
-        faded = bool(np.any(weight < 0.5))
+        faded = bool((weight < 0.5).any())
         if faded and not self._ff_faded:
             axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
             self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
-        elif not faded and self._ff_faded and np.all(weight > 0.9):
+        elif not faded and self._ff_faded and (weight > 0.9).all():
             self.say(MAV_SEVERITY.INFO, "FF restored")
         else:
             return
@@ -401,7 +411,7 @@ class Firmware:
         if math.isfinite(frame.depth):
             self._depth_t = t
         # depth may come slower than the loop (SIM_DEPTH_RATE): healthy while it is under 0.5 s old
-        healthy = bool(frame.healthy and np.all(np.isfinite(frame.as_vector()[2:])) and t - self._depth_t <= 0.5)
+        healthy = bool(frame.healthy and np.isfinite(frame.as_vector()[2:]).all() and t - self._depth_t <= 0.5)
         if healthy != self.sensors_healthy and self.ekf.initialised:
             self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
                      "Sensors back" if healthy else "Sensors lost: thrusters neutral")

@@ -28,7 +28,7 @@ import numpy as np
 if TYPE_CHECKING:
     from .sea import Sea
 
-__all__ = ["NO_BUOY_ERRORS", "BuoyErrors", "WaveBuoy"]
+__all__ = ["NO_BUOY_ERRORS", "BuoyErrors", "BuoyTape", "WaveBuoy"]
 
 _BLOCK = 1024
 _NOISE_TAG, _DROP_TAG = 0xB0, 0xD0
@@ -111,3 +111,43 @@ class WaveBuoy:
     def newest_stamp(self, t_vehicle: float) -> float:
         """The stamp (s, buoy clock) of the newest sample measured by vehicle time ``t_vehicle``."""
         return float(np.floor((t_vehicle + self.errors.clock_offset) * self.sample_rate + 1e-9) / self.sample_rate)
+
+
+class BuoyTape:
+    """A buoy's record measured once per sample, for a forecaster whose window slides forward.
+
+    :meth:`record` returns what :meth:`WaveBuoy.record` returns, but each sample is measured once,
+    in blocks of ``block`` samples aligned on the buoy's grid (sample n = round(t f_s) in block
+    n // ``block``), and kept until a window starts after its block: a forecast update every
+    0.5 s over a 120 s window costs a slice instead of the sea's 200 components at 240 samples.
+    The noise and losses are the buoy's own (drawn per sample index). The elevation of a sample is
+    the same sum as :meth:`WaveBuoy.measure`'s; BLAS may group a matrix-vector product's rows
+    differently for another array shape, so it can differ from a window measured whole in the
+    last bit (≤ 1e-15 m), never more.
+    """
+
+    def __init__(self, buoy: WaveBuoy, block: int = 256):
+        self.buoy = buoy
+        self.block = int(block)
+        self._dt = 1.0 / buoy.sample_rate
+        self._blocks: dict[int, np.ndarray] = {}
+
+    def _samples(self, n0: int, n1: int) -> np.ndarray:
+        """The measured samples n0 … n1 (inclusive, buoy grid indices)."""
+        b0, b1 = n0 // self.block, n1 // self.block
+        for b in [b for b in self._blocks if b < b0]:
+            del self._blocks[b]               # windows only slide forward: older blocks are done
+        for b in range(b0, b1 + 1):
+            if b not in self._blocks:
+                self._blocks[b] = self.buoy.measure(np.arange(b * self.block, (b + 1) * self.block) * self._dt)
+        tape = self._blocks[b0] if b0 == b1 else np.concatenate([self._blocks[b] for b in range(b0, b1 + 1)])
+        start = n0 - b0 * self.block
+        return tape[start:start + n1 - n0 + 1]
+
+    def record(self, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
+        """(t, ζ) over [t0, t1] (s, buoy clock), as :meth:`WaveBuoy.record`; the arrays are new."""
+        n0 = int(np.ceil(t0 / self._dt - 1e-9))
+        n1 = int(np.floor(t1 / self._dt + 1e-9))
+        if n1 < n0:
+            return np.zeros(0), np.zeros(0)
+        return np.arange(n0, n1 + 1) * self._dt, self._samples(n0, n1).copy()

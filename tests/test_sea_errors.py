@@ -134,8 +134,12 @@ def test_dswp_feeder_defaults_are_the_former_behaviour():
     t, eta = sea.buoy().record(30.0 - 120.0, 30.0)
     before = predict_from_buoy(t, eta, sea.buoy_x, 0.0, DEPTH, window_s=120.0, oversample=2, seq=1)
     got = fw.forecast.offered[0]
-    for name in ("amplitude", "omega", "k", "phase"):
+    for name in ("omega", "k"):
         assert np.array_equal(getattr(got, name), getattr(before, name))
+    # The feeder's BuoyTape measures each sample once, in blocks: BLAS may round a sample's sum in
+    # the last bit otherwise than for the whole window, so the fit agrees to rounding, not bit for bit.
+    np.testing.assert_allclose(got.amplitude, before.amplitude, rtol=1e-10, atol=0)
+    np.testing.assert_allclose(got.phase, before.phase, rtol=0, atol=1e-10)
     assert (got.valid_from, got.valid_until) == (before.valid_from, before.valid_until)
     with pytest.raises(ValueError, match=r"dswp\.window_s"):
         RunSpec(forecast="dswp", dswp={"window_s": 5.0})

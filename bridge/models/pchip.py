@@ -55,7 +55,7 @@ class Pchip:
     def __call__(self, xq) -> np.ndarray:
         """The interpolant at ``xq`` (any shape; outside [x₀, x_n] the end pieces extend)."""
         xq = np.asarray(xq, dtype=float)
-        i = np.clip(np.searchsorted(self.x, xq, side="right") - 1, 0, self.x.size - 2)
+        i = np.minimum(np.maximum(np.searchsorted(self.x, xq, side="right") - 1, 0), self.x.size - 2)
         s = xq - self.x[i]
         c = self.c[:, i]
         z = s * s

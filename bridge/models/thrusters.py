@@ -61,12 +61,12 @@ class T200Curve:
 
     def thrust(self, pwm) -> np.ndarray:
         """Thrust (N, positive along the thruster's direction) for PWM (µs), clipped to 1100–1900 µs."""
-        p = np.clip(np.asarray(pwm, dtype=float), self.pwm_min, self.pwm_max)
+        p = np.minimum(np.maximum(np.asarray(pwm, dtype=float), self.pwm_min), self.pwm_max)   # np.clip, cheaper
         return self._fwd(p)
 
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
-        f = np.clip(np.asarray(thrust, dtype=float), self.thrust_min, self.thrust_max)
+        f = np.minimum(np.maximum(np.asarray(thrust, dtype=float), self.thrust_min), self.thrust_max)
         out = np.full(f.shape, self.pwm_neutral)
         pos, neg = f > 0.0, f < 0.0
         out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)

@@ -24,6 +24,7 @@ from firmware_py.firmware import Firmware, tick_row
 from firmware_py.hal import InProcessSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
+from sitl.buoy import BuoyTape
 from sitl.plant import Plant
 from sitl.sea import Sea
 
@@ -65,6 +66,7 @@ class DSWPFeeder:
                  oversample: int = 2, horizon_s: float | None = None):
         self.sea, self.fw, self.x = sea, fw, float(x_vehicle)
         self.buoy = sea.buoy()
+        self.tape = BuoyTape(self.buoy)       # each buoy sample measured once, not once per window
         self.period, self.window = float(period_s), float(window_s)
         self.fit: dict[str, Any] = {"f_min": f_min, "f_max": f_max, "rel_threshold": rel_threshold,
                                     "deep_water": deep_water, "oversample": int(oversample), "horizon_s": horizon_s}
@@ -77,7 +79,7 @@ class DSWPFeeder:
             return
         self._next = t + self.period
         t_last = self.buoy.newest_stamp(t)    # the newest sample measured by now, on the buoy's clock
-        tb, eta = self.buoy.record(t_last - self.window, t_last)
+        tb, eta = self.tape.record(t_last - self.window, t_last)
         self.seq += 1
         try:
             f = predict_from_buoy(tb, eta, self.buoy.x, self.x, self.sea.water_depth, window_s=self.window,
