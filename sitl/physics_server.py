@@ -280,14 +280,8 @@ class _RecordingPlant:
 
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``wavekeep plant --case W3 [--seed N] [--port 9002] [--host 127.0.0.1]``."""
-    from bridge.configfile import ConfigError, parse_key_values
-    from bridge.schemas import load_true_vehicle
-
-    from .plant import Plant
-    from .sea import Sea
-
+def _parser() -> argparse.ArgumentParser:
+    """``wavekeep plant``'s options."""
     ap = argparse.ArgumentParser(prog="wavekeep plant",
                                  description="Serve the simulated sea and vehicle over ArduPilot's JSON SITL "
                                              "protocol (UDP, lockstep).")
@@ -304,7 +298,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="set one sea config key (repeatable), e.g. current.speed=0.3 (docs/sea-errors.md)")
     ap.add_argument("--true-vehicle", default=None, metavar="NAME",
                     help="plant-only vehicle override: a name in configs/vehicle/true/ or a path")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``wavekeep plant --case W3 [--seed N] [--port 9002] [--host 127.0.0.1]``."""
+    from bridge.configfile import ConfigError, parse_key_values
+    from bridge.schemas import load_true_vehicle
+
+    from .plant import Plant
+    from .sea import Sea
+
+    args = _parser().parse_args(argv)
 
     rows: list[list[float]] = []
     session = buoy = None
