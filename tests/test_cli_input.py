@@ -1,6 +1,7 @@
 """Issue #17: bad input is one line ``wavekeep CMD: …`` on stderr, exit 2 — never a traceback, nothing left behind."""
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -191,3 +192,15 @@ def test_plant_refuses_bad_world_options(capsys):
         assert plant_main(["--port", "0", *argv]) == 2
         err = capsys.readouterr().err
         assert err.startswith("wavekeep plant: ") and word in err and "Traceback" not in err
+
+
+def test_wavekeep_runs_with_one_blas_thread_unless_told_otherwise():
+    """The CLI sets one BLAS thread before numpy is imported (sitl/harness/blas.py), and leaves a choice alone."""
+    code = ("import os, sys; from sitl.harness.cli import main; main(['--version']); "
+            "print(os.environ['OPENBLAS_NUM_THREADS'], 'numpy' in sys.modules)")
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert out.split()[-2:] == ["1", "False"]
+    out = subprocess.run([sys.executable, "-c", code], env={**env, "OPENBLAS_NUM_THREADS": "2"},
+                         capture_output=True, text=True, check=True).stdout
+    assert out.split()[-2] == "2"

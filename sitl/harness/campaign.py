@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from .blas import ONE_BLAS_THREAD
 from .campaign_spec import CampaignSpec, CampaignTask
 from .campaign_store import Journal, write_tables
 from .campaign_task import TaskOutcome, run_task, spec_columns
@@ -37,7 +38,7 @@ from .stats import format_summary_table, summarise_campaign
 
 __all__ = ["CampaignProgress", "CampaignReport", "dask_client", "execute_tasks", "run_campaign"]
 
-WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+WORKER_ENV = ONE_BLAS_THREAD
 """One BLAS thread per worker: the workers already fill the cores."""
 
 log = logging.getLogger("wavekeep.campaign")

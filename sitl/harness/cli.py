@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from .blas import use_one_blas_thread
 from .commands import compare, live, missions, processes, world
 from .commands.options import Parser, UsageError
 
@@ -58,6 +59,7 @@ def _command(argv: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    use_one_blas_thread()   # before any command imports numpy (sitl/harness/blas.py says why)
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in DELEGATED:
         import importlib

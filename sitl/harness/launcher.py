@@ -41,6 +41,7 @@ from bridge.schemas import load_mission_config, load_vehicle_config
 from firmware_py.modes import Mode
 from sitl.sea import Sea
 
+from .blas import ONE_BLAS_THREAD
 from .ports import port_is_free
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
@@ -183,7 +184,7 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path,
     """
     spec = opt.spec
     # One BLAS thread per process: three processes already share the cores
-    env = dict(os.environ, PYTHONUNBUFFERED="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", **ONE_BLAS_THREAD)
     netcfg = out / "network.yaml"
     netcfg.write_text(json.dumps({"site": "sim", "zenoh": {
         "mode": "peer", "service_listen": [f"tcp/127.0.0.1:{opt.zenoh_port}"],
