@@ -85,6 +85,10 @@ class WaveFeedForward:
         self.params = params
         self.h = h
         self.faults = 0                 # forecasts that evaluated to non-finite loads
+        self.trust = 1.0                # the smallest weight, averaged over WK_FF_TRUST_TC
+        self.distrusted = False         # the forecast is set aside: FF, preview and the EKF's wave model off
+        self.set_aside = 0              # times the forecast was set aside (kept across resets)
+        self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
         self.reset()
 
     def reset(self) -> None:
@@ -94,8 +98,6 @@ class WaveFeedForward:
         self._obs_f: np.ndarray | None = None
         self._pred_f: np.ndarray | None = None
         self.weight = np.ones(3)
-        self.trust = 1.0                # the smallest weight, averaged over WK_FF_TRUST_TC
-        self.distrusted = False         # the forecast is set aside: FF, preview and the EKF's wave model off
 
     # ------------------------------------------------------------------ models
     def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
@@ -209,11 +211,19 @@ class WaveFeedForward:
         forecast and the measured motion disagree for good (a depth reading with the waves' dynamic
         pressure in it, docs/sea-errors.md). The three loads come from one flow at one pose, so then no
         axis is trusted, nor the preview or the estimator's wave model that use the same flow: the
-        vehicle flies C-PD until the smallest weight's average is back above 0.75.
+        vehicle flies C-PD. With the forecast out of the loop the monitor may see no disagreement, so it
+        stays aside for 4·``WK_FF_TRUST_TC``, doubling each time it is set aside again (at most 600 s),
+        and then until the smallest weight's average is back above 0.75.
         """
         tc = self.params["WK_FF_TRUST_TC"]
         if tc <= 0.0:
             self.trust, self.distrusted = 1.0, False
             return
         self.trust += (1.0 - math.exp(-self.h / tc)) * (float(self.weight.min()) - self.trust)
-        self.distrusted = self.trust < (0.75 if self.distrusted else 0.5)
+        self._aside_left = max(0.0, self._aside_left - self.h)
+        if not self.distrusted and self.trust < 0.5:
+            self.distrusted = True
+            self.set_aside += 1
+            self._aside_left = min(600.0, 4.0 * tc * 2.0 ** (self.set_aside - 1))
+        elif self.distrusted and self._aside_left <= 0.0 and self.trust > 0.75:
+            self.distrusted = False
