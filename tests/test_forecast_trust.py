@@ -44,7 +44,7 @@ def _rms(log, a, b="", after=5.0):
 
 @pytest.fixture(scope="module")
 def raw_and_corrected():
-    return _mission(), _mission({"WK_BARO_WAVE": 1})
+    return _mission({"WK_FF_TRUST_TC": 5}), _mission({"WK_BARO_WAVE": 1, "WK_FF_TRUST_TC": 5})
 
 
 def test_the_forecast_takes_the_dynamic_pressure_out_of_the_depth(raw_and_corrected):
@@ -71,6 +71,6 @@ def test_a_forecast_that_disagrees_for_long_is_set_aside(raw_and_corrected):
 
 
 def test_a_nominal_sea_never_sets_the_forecast_aside():
-    log = _mission(sea={}, duration=120.0)
+    log = _mission({"WK_FF_TRUST_TC": 5}, sea={}, duration=120.0)
     weights = log[:, [COLUMN["ff_w_X"], COLUMN["ff_w_Z"], COLUMN["ff_w_M"]]]
     assert not np.all(weights == 0.0, axis=1).any()
