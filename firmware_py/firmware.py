@@ -358,7 +358,8 @@ class Firmware:
         faded = bool((weight < 0.5).any())
         if faded and not self._ff_faded:
             axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
-            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
+            aside = " for long: set aside" if self.feedforward.distrusted else ""
+            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees{aside}")
         elif not faded and self._ff_faded and (weight > 0.9).all():
             self.say(MAV_SEVERITY.INFO, "FF restored")
         else:
@@ -393,7 +394,7 @@ class Firmware:
         ff_active, ff_flow, ff = self._feedforward(ahead_flow)
         trusted = not self.feedforward.distrusted
         if ff_flow is None or not trusted:   # a forecast that cannot be evaluated, or that the monitor has
-            flow = None                      # faded, is no forecast for the estimator either
+            flow = None                      # set aside, is no forecast for the estimator either
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
         target = self.setpoint + self._preview_offset(ff_active, t, trusted)
