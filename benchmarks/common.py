@@ -55,3 +55,15 @@ def write(name: str, figures: dict) -> Path:
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps({"benchmark": name, "machine": machine(), "figures": figures}, indent=2))
     return path
+
+
+def campaign_rows(folder: Path) -> list[dict]:
+    """A campaign's finished missions from its journal (``missions.jsonl``), the last row per mission id:
+    what a running or interrupted campaign has done so far, as well as a finished one."""
+    rows: dict[str, dict] = {}
+    for line in (Path(folder) / "missions.jsonl").read_text(encoding="utf-8").splitlines():
+        if line.strip():
+            r = json.loads(line)
+            if r.get("status") == "ok":
+                rows[r["mission_id"]] = r
+    return list(rows.values())

@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
@@ -69,14 +68,10 @@ def time_figure(out: Path, duration: float = 300.0) -> Path:
 
 
 def _rows(campaign: Path) -> list[dict]:
-    """The campaign's finished missions (its journal ``missions.jsonl``), the last row per mission id."""
-    rows: dict[str, dict] = {}
-    for line in (campaign / "missions.jsonl").read_text().splitlines():
-        if line.strip():
-            r = json.loads(line)
-            if r.get("status") == "ok":
-                rows[r["mission_id"]] = r
-    return list(rows.values())
+    """The campaign's finished missions (:func:`benchmarks.common.campaign_rows`)."""
+    from benchmarks.common import campaign_rows
+
+    return campaign_rows(campaign)
 
 
 def _col(rows: list[dict], key: str) -> np.ndarray:

@@ -3,8 +3,9 @@
     python -m benchmarks.sea_errors runs/sea_errors [--figure docs/figures/sea_errors_reduction.png]
 
 Reads a ``configs/campaign/sea_errors.yaml`` campaign folder (``campaign.json`` for each variant's
-baseline, ``missions.csv`` for the rows). Per FF variant and sea state, against the C-PD flown in the same
-world (the variant's ``baseline``), paired by seed:
+baseline, the journal ``missions.jsonl`` for the rows, so a campaign still running can be read).
+Per FF variant and sea state, against the C-PD flown in the same world (the variant's ``baseline``),
+paired by seed:
 
 * the mean RMSE reduction over the three DoF (%), with a percentile bootstrap 95 % interval over seeds;
 * FF's and C-PD's mean RMSE per DoF, and whether FF's is larger in any DoF ("worse");
@@ -17,12 +18,12 @@ partial campaign is reported with the seeds it has.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import campaign_rows
 from sitl.harness.stats import bootstrap_ci
 
 DOF = ("surge", "heave", "pitch")
@@ -48,13 +49,13 @@ ROWS: tuple[tuple[str, str, str, str], ...] = (
 )
 
 
-def _rmse(row: dict[str, str]) -> np.ndarray:
+def _rmse(row: dict) -> np.ndarray:
     return np.array([float(row[f"rmse_{d}"]) for d in DOF])
 
 
-def row_figures(rows: list[dict[str, str]], variant: str, baseline: str, case: str,
-                resamples: int = 10_000) -> dict | None:
-    """One (variant, case): the paired reduction statistics, or None when no seed has both missions."""
+def row_figures(rows: list[dict], variant: str, baseline: str, case: str, resamples: int = 10_000) -> dict | None:
+    """One (variant, case): the paired reduction statistics, or None when no seed has both missions.
+    ``rows`` are mission rows (a journal's, or ``missions.csv``'s with their values as text)."""
     by = {(r["variant"], int(r["seed"])): r for r in rows if r["case"] == case and r["status"] == "ok"}
     seeds = sorted(s for v, s in by if v == variant and (baseline, s) in by)
     if not seeds:
@@ -75,8 +76,7 @@ def sea_errors(folder: Path, resamples: int = 10_000) -> dict:
     """The table's document from a campaign folder."""
     camp = json.loads((folder / "campaign.json").read_text(encoding="utf-8"))
     baselines = {v["name"]: v.get("baseline") or camp["baseline"] for v in camp["variants"]}
-    with open(folder / "missions.csv", newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
+    rows = campaign_rows(folder)
     table = []
     for variant, label, family, level in ROWS:
         if variant not in baselines:

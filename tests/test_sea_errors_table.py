@@ -1,7 +1,6 @@
 """benchmarks.sea_errors: the paired reductions, the "worse" flag and the table from a campaign folder."""
 from __future__ import annotations
 
-import csv
 import json
 
 import pytest
@@ -16,11 +15,11 @@ def _folder(tmp_path, rows):
             "variants": [{"name": "cpd"}, {"name": "ff_exact", "baseline": None},
                          {"name": "cpd_bar30"}, {"name": "ff_bar30_raw", "baseline": "cpd_bar30"}]}
     (tmp_path / "campaign.json").write_text(json.dumps(camp))
-    with open(tmp_path / "missions.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, COLUMNS)
-        w.writeheader()
+    with open(tmp_path / "missions.jsonl", "w") as fh:
         for r in rows:
-            w.writerow(dict(zip(COLUMNS, r, strict=True)))
+            row = dict(zip(COLUMNS, r, strict=True))
+            row["mission_id"] = f"{row['case']}:{row['variant']}:{row['seed']}"
+            fh.write(json.dumps(row) + "\n")
     return tmp_path
 
 
