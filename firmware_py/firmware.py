@@ -380,9 +380,12 @@ class Firmware:
         frame = self.hal.read_sensors()
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
-        active = self.forecast.current(t) if self.params["WK_BARO_WAVE"] and self.ekf.initialised else None
-        if active is not None and math.isfinite(frame.depth):   # the reading less the waves' dynamic pressure
-            frame = replace(frame, depth=wave_corrected_depth(frame.depth, active.components, self.ekf.x[0], t))
+        # The reading less the waves' dynamic pressure, at the estimated x (the fix's before the EKF starts, so
+        # it starts from a corrected depth too: a 0.4 m step after start-up diverged the paper's EKF)
+        x_at = float(self.ekf.x[0]) if self.ekf.initialised else frame.x
+        active = self.forecast.current(t) if self.params["WK_BARO_WAVE"] and math.isfinite(x_at) else None
+        if active is not None and math.isfinite(frame.depth):
+            frame = replace(frame, depth=wave_corrected_depth(frame.depth, active.components, x_at, t))
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
