@@ -296,6 +296,12 @@ def _least_squares(cols: np.ndarray, eta: np.ndarray, penalty: float) -> np.ndar
             coef, info = dpotrs(upper, cols.T @ eta)
             if info == 0:
                 return coef
+    return _svd_least_squares(cols, eta, penalty)
+
+
+def _svd_least_squares(cols: np.ndarray, eta: np.ndarray, penalty: float) -> np.ndarray:
+    """numpy's SVD least squares of the fit, of the ridge-stacked system [M; √penalty P] when penalised:
+    the fallback of :func:`_least_squares` for an ill-conditioned system (and the former fit)."""
     if not penalty:
         return np.linalg.lstsq(cols, eta, rcond=None)[0]
     m2 = cols.shape[1] - 2

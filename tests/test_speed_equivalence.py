@@ -9,15 +9,7 @@ from bridge import dswp
 from sitl.buoy import BuoyTape
 from sitl.sea import Sea
 
-
-def _svd_fit(cols, eta, penalty):
-    """The former fit: numpy's SVD least squares, of the ridge-stacked system when penalised."""
-    if not penalty:
-        return np.linalg.lstsq(cols, eta, rcond=None)[0]
-    m2 = cols.shape[1] - 2
-    pen = np.zeros((m2, cols.shape[1]))
-    pen[:, 2:] = np.sqrt(penalty) * np.eye(m2)
-    return np.linalg.lstsq(np.vstack([cols, pen]), np.concatenate([eta, np.zeros(m2)]), rcond=None)[0]
+_svd_fit = dswp._svd_least_squares   # the former fit: numpy's SVD least squares
 
 
 def _window_system(case, t_end, oversample, lost):
