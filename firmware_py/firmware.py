@@ -124,6 +124,7 @@ class Firmware:
         self.feedforward = WaveFeedForward(vehicle, params, self.h)
         self.preview = SaturationPreview(vehicle, params, self.strips, self.h)
         self._ff_faded = False
+        self._ff_aside = False
         self._passthrough_key: tuple[int, int] | None = None
         self._passthrough_map: tuple[tuple[int, int], ...] = ()
         self.on_tick = on_tick
@@ -354,12 +355,16 @@ class Firmware:
         return (st[0] + 4.0 * st[1] + st[2]) / 6.0
 
     def _announce_fade(self, weight: np.ndarray) -> None:
-        """STATUSTEXT when the FF monitor fades an axis below half weight, and when all recover."""
+        """STATUSTEXT when the FF monitor fades an axis below half weight, and when all recover;
+        and when the forecast is set aside (``WK_FF_TRUST_TC``) or trusted again."""
+        if (aside := self.feedforward.distrusted) != self._ff_aside:
+            self._ff_aside = aside
+            self.say(MAV_SEVERITY.WARNING if aside else MAV_SEVERITY.INFO,
+                     "FF off: forecast set aside" if aside else "FF: forecast trusted again")
         faded = bool((weight < 0.5).any())
         if faded and not self._ff_faded:
             axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
-            aside = " for long: set aside" if self.feedforward.distrusted else ""
-            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees{aside}")
+            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
         elif not faded and self._ff_faded and (weight > 0.9).all():
             self.say(MAV_SEVERITY.INFO, "FF restored")
         else:
@@ -380,8 +385,7 @@ class Firmware:
         frame = self.hal.read_sensors()
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
-        # The reading less the waves' dynamic pressure, at the estimated x (the fix's before the EKF starts, so
-        # it starts from a corrected depth too: a 0.4 m step after start-up diverged the paper's EKF)
+        # The reading less the waves' dynamic pressure at the estimated x (the fix's until the EKF starts from it)
         x_at = float(self.ekf.x[0]) if self.ekf.initialised else frame.x
         active = self.forecast.current(t) if self.params["WK_BARO_WAVE"] and math.isfinite(x_at) else None
         if active is not None and math.isfinite(frame.depth):

@@ -83,3 +83,24 @@ def test_a_nominal_sea_never_sets_the_forecast_aside():
     log = _mission({"WK_FF_TRUST_TC": 5}, sea={}, duration=120.0)
     weights = log[:, [COLUMN["ff_w_X"], COLUMN["ff_w_Z"], COLUMN["ff_w_M"]]]
     assert not np.all(weights == 0.0, axis=1).any()
+
+
+def test_the_firmware_says_when_it_sets_the_forecast_aside():
+    from firmware_py.modes import Mode
+    from firmware_py.params import load_params
+    from sitl.harness.run import build_mission
+
+    params = load_params().copy()
+    params.set("WK_FF_TRUST_TC", 5.0)
+    m = build_mission(RunSpec("W2", "cpd_ff", seed=1, duration=20.0, sea=DYNAMIC), params=params)
+    fw = m.firmware
+    fw.scheduler.run_tick()
+    m.hal.step_world()
+    fw.request_mode(Mode.GUIDED)
+    fw.set_target(*m.setpoint)
+    fw.request_arm(True)
+    for _ in range(300):
+        fw.scheduler.run_tick()
+        m.hal.step_world()
+    assert fw.feedforward.distrusted and fw.feedforward.set_aside == 1
+    assert "FF off: forecast set aside" in [text for _, text in fw.events]
