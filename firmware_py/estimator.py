@@ -336,12 +336,7 @@ class PlanarEKF:
                     self.rejected[name] += 1
         self._last_accept_t[accept | reset] = frame.t
         for k in np.flatnonzero(reset).tolist():
-            j = int(MEASURED_STATES[k])
-            self.kf.x[j, 0] = z[k]
-            self.kf.P[j, :] = 0.0
-            self.kf.P[:, j] = 0.0
-            self.kf.P[j, j] = r[k]
-            self.resets[self.channels[k]] += 1
+            self._reset_channel(k, float(z[k]), float(r[k]))
         self.nis_total = (0.0, 0)
         if accept.any():
             if reset.any():                       # a reset moved the state: predict the others again
@@ -353,6 +348,22 @@ class PlanarEKF:
             if self.params["WK_EKF_QI_ADPT"]:
                 self._adapt_to_innovations(y, S, avail)
         return accept
+
+    def _reset_channel(self, k: int, value: float, noise_var: float) -> None:
+        """Set the state channel k measures to ``value``, its covariance row and column cleared to the
+        measurement's noise variance (ArduPilot's EKF resets to a source this way)."""
+        j = int(MEASURED_STATES[k])
+        self.kf.x[j, 0] = value
+        self.kf.P[j, :] = 0.0
+        self.kf.P[:, j] = 0.0
+        self.kf.P[j, j] = noise_var
+        self.resets[self.channels[k]] += 1
+
+    def reset_channel(self, name: str, value: float) -> None:
+        """Reset channel ``name``'s state to a reading that changed meaning (e.g. a depth now corrected
+        for the waves' dynamic pressure), rather than let the filter see a step it would take as motion."""
+        k = self.channels.index(name)
+        self._reset_channel(k, value, float(self.measurement_noise()[k]))
 
     def _pitch_blind(self, accept: np.ndarray) -> np.ndarray | None:
         """Among the accepted channels, those whose gain on θ is held at zero (``WK_EKF_ACC_TH`` 0: the

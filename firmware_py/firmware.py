@@ -23,6 +23,7 @@ from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
 from .control import ControlOutput, StationKeepingController
+from .depth_correction import DepthCorrection
 from .estimator import PlanarEKF
 from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
 from .feedforward import FeedForwardOutput, WaveFeedForward
@@ -33,7 +34,7 @@ from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode
 from .params import RCIN_PASSTHROUGH, ParameterTable
 from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
-from .sensors import SensorFrame, wave_corrected_depth
+from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
 
 __all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
@@ -123,6 +124,7 @@ class Firmware:
         self.mixer = MotorMixer(layout, curve, params, self.h)
         self.feedforward = WaveFeedForward(vehicle, params, self.h)
         self.preview = SaturationPreview(vehicle, params, self.strips, self.h)
+        self.depth_correction = DepthCorrection(params)
         self._ff_faded = False
         self._ff_aside = False
         self._passthrough_key: tuple[int, int] | None = None
@@ -385,11 +387,7 @@ class Firmware:
         frame = self.hal.read_sensors()
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
-        # The reading less the waves' dynamic pressure at the estimated x (the fix's until the EKF starts from it)
-        x_at = float(self.ekf.x[0]) if self.ekf.initialised else frame.x
-        active = self.forecast.current(t) if self.params["WK_BARO_WAVE"] and math.isfinite(x_at) else None
-        if active is not None and math.isfinite(frame.depth):
-            frame = replace(frame, depth=wave_corrected_depth(frame.depth, active.components, x_at, t))
+        frame = self.depth_correction.apply(frame, self.forecast, self.ekf, t)   # WK_BARO_WAVE
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral

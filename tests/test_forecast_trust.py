@@ -59,7 +59,8 @@ def test_the_forecast_takes_the_dynamic_pressure_out_of_the_depth(raw_and_correc
 
 def test_the_estimator_starts_from_a_corrected_depth():
     """W1 seed 2 starts under a crest (0.47 m of head): an EKF started from the raw reading and then fed
-    corrected ones diverged within 0.3 s (the campaign's ff_bar30 W1 seed 2: 24 m of surge RMSE)."""
+    corrected ones diverged within 0.3 s (the campaign's ff_bar30 W1 seed 2: 24 m of surge RMSE). Its depth
+    is now reset when the correction starts (firmware_py/depth_correction.py)."""
     r = run_mission(RunSpec("W1", "cpd_ff", seed=2, duration=10.0, sea=DYNAMIC, overrides={"WK_BARO_WAVE": 1}))
     log = r.timeseries
     assert np.max(np.abs(log[:, COLUMN["z_hat"]] - log[:, COLUMN["z"]])) < 0.05
