@@ -15,9 +15,8 @@ import pytest
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, restoring_forces, strip_nodes
 from firmware_py.feedforward import WaveFeedForward
-from firmware_py.modes import Mode
 from firmware_py.params import load_params
-from sitl.harness.run import build_mission, run_mission
+from sitl.harness.run import build_mission, run_mission, take_off
 from sitl.harness.spec import RunSpec
 from sitl.sea import Sea
 
@@ -151,11 +150,7 @@ def test_monitor_announces_a_fade_and_logs_its_weight():
     """A useless forecast (−10 dB): the monitor fades FF, says so by STATUSTEXT, and the weights are logged."""
     m = build_mission(RunSpec("W2", "cpd_ff", -10.0, duration=40.0), params=load_params())
     fw = m.firmware
-    fw.scheduler.run_tick()
-    m.hal.step_world()
-    fw.request_mode(Mode.GUIDED)
-    fw.set_target(*m.setpoint)
-    fw.request_arm(True)
+    take_off(m)
     weights = []
     for _ in range(600):
         fw.scheduler.run_tick()

@@ -87,19 +87,14 @@ def test_a_nominal_sea_never_sets_the_forecast_aside():
 
 
 def test_the_firmware_says_when_it_sets_the_forecast_aside():
-    from firmware_py.modes import Mode
     from firmware_py.params import load_params
-    from sitl.harness.run import build_mission
+    from sitl.harness.run import build_mission, take_off
 
     params = load_params().copy()
     params.set("WK_FF_TRUST_TC", 5.0)
     m = build_mission(RunSpec("W2", "cpd_ff", seed=1, duration=20.0, sea=DYNAMIC), params=params)
     fw = m.firmware
-    fw.scheduler.run_tick()
-    m.hal.step_world()
-    fw.request_mode(Mode.GUIDED)
-    fw.set_target(*m.setpoint)
-    fw.request_arm(True)
+    take_off(m)
     for _ in range(300):
         fw.scheduler.run_tick()
         m.hal.step_world()

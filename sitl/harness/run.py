@@ -129,6 +129,20 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
                         mcfg["duration"] if spec.duration is None else float(spec.duration), sea.seed, feeder)
 
 
+def take_off(m: MissionSetup) -> None:
+    """Take off as a ground station would: the first tick initialises the estimator; then GUIDED to
+    the mission's station, and arm (RuntimeError if the firmware refuses)."""
+    fw = m.firmware
+    fw.scheduler.run_tick()
+    m.hal.step_world()
+    fw.request_mode(Mode.GUIDED)
+    fw.set_target(*m.setpoint)
+    result, why = fw.request_arm(True)
+    if result != 0:
+        raise RuntimeError(f"the firmware refused to arm: {why}")
+    fw.refresh_prediction()   # as the networked firmware does when its hold ends
+
+
 def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: bool = False,
                 initial_eta=None) -> RunResult:
     """Fly one mission and return its results and per-tick time series.
@@ -142,16 +156,7 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     sea, plant, hal, fw, forecast, setpoint, rate = m.sea, m.plant, m.hal, m.firmware, m.forecast, m.setpoint, m.rate_hz
     duration = m.duration_s
     n = int(round(duration * rate))
-    # Take off as a ground station would: the first tick initialises the estimator; then
-    # GUIDED to the mission's station, and arm.
-    fw.scheduler.run_tick()
-    hal.step_world()
-    fw.request_mode(Mode.GUIDED)
-    fw.set_target(*setpoint)
-    result, why = fw.request_arm(True)
-    if result != 0:
-        raise RuntimeError(f"the firmware refused to arm: {why}")
-    fw.refresh_prediction()   # as the networked firmware does when its hold ends
+    take_off(m)
     n -= 1
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
     wall0 = time.perf_counter()
