@@ -58,6 +58,7 @@ SERVO_32 = struct.Struct("<HHI32H")     # 72 bytes
 THRUSTER_CHANNELS = 8
 MAX_FRAME_RATE_HZ = 10000               # ArduPilot's SIM_RATE_HZ is typically 400–1200 Hz
 PWM_RANGE_US = (500, 2500)              # a thruster channel must be 0 (no output) or within this
+_NO_OUTPUT = (0,) * 16                  # the channels a servo packet does not drive
 
 
 @dataclass(frozen=True)
@@ -84,10 +85,8 @@ class StateReply:
 
 def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
     """The 16-channel servo packet for ``pwm`` (µs; missing channels are 0, values clipped to uint16)."""
-    ch = np.zeros(16, dtype=np.int64)
-    p = np.asarray(pwm, dtype=np.int64)[:16]
-    ch[: p.size] = np.clip(p, 0, 65535)
-    return SERVO_16.pack(MAGIC_16, int(frame_rate), int(frame_count) & 0xFFFFFFFF, *ch.tolist())
+    ch = np.asarray(pwm, dtype=np.int64)[:16].clip(0, 65535).tolist()
+    return SERVO_16.pack(MAGIC_16, int(frame_rate), int(frame_count) & 0xFFFFFFFF, *ch, *_NO_OUTPUT[len(ch):])
 
 
 def decode_servo_packet(data: bytes) -> ServoPacket | None:
@@ -108,12 +107,13 @@ def decode_servo_packet(data: bytes) -> ServoPacket | None:
     rate, count = fields[1], fields[2]
     if not 1 <= rate <= MAX_FRAME_RATE_HZ:
         return None
-    pwm = np.array(fields[3:3 + THRUSTER_CHANNELS], dtype=float)
+    # Eight small ints: checked in Python, one array made at the end (numpy's per-call cost dominated)
+    channels = fields[3:3 + THRUSTER_CHANNELS]
     lo, hi = PWM_RANGE_US
-    if np.any((pwm != 0) & ((pwm < lo) | (pwm > hi))):
-        return None
-    pwm[pwm == 0] = NEUTRAL_PWM_US
-    return ServoPacket(rate, count, pwm)
+    for v in channels:
+        if v and not lo <= v <= hi:
+            return None
+    return ServoPacket(rate, count, np.array([v or NEUTRAL_PWM_US for v in channels], dtype=float))
 
 
 def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
@@ -168,7 +168,7 @@ def encode_state(msg: dict[str, Any]) -> bytes:
 
 def _vec(obj: dict[str, Any], key: str, n: int) -> np.ndarray:
     v = np.array(obj[key], dtype=float)
-    if v.shape != (n,) or not np.all(np.isfinite(v)):
+    if v.shape != (n,) or not np.isfinite(v).all():
         raise ValueError(f"{key}: expected {n} finite numbers")
     return v
 

@@ -25,6 +25,7 @@ SITL does.
 from __future__ import annotations
 
 import math
+import select
 import socket
 import time
 from dataclasses import dataclass
@@ -132,6 +133,9 @@ class JSONSITLHAL(HAL):
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._sock.bind(("0.0.0.0" if self.address[0] not in ("127.0.0.1", "localhost") else "127.0.0.1", 0))
         self._sock.connect(self.address)
+        self._sock.setblocking(False)
+        self._readable = select.poll()
+        self._readable.register(self._sock, select.POLLIN)
         self._closed = False
 
     # ------------------------------------------------------------------ lifecycle
@@ -208,17 +212,21 @@ class JSONSITLHAL(HAL):
             self.counters.send_errors += 1
 
     def _await_reply(self, wait_s: float) -> bool:
-        """Wait up to ``wait_s`` (wall) for the reply to the current frame; True if it came."""
+        """Wait up to ``wait_s`` (wall) for the reply to the current frame; True if it came.
+
+        The socket stays non-blocking and the wait is one ``poll``: switching the socket's
+        timeout for every wait cost two ``fcntl`` calls each time, twice a tick.
+        """
         deadline = time.monotonic() + wait_s
         while True:
             remaining = deadline - time.monotonic()
             try:
-                if remaining <= 0:
-                    self._sock.setblocking(False)
-                else:
-                    self._sock.settimeout(remaining)
+                if remaining > 0 and not self._readable.poll(remaining * 1e3):
+                    return False
                 data = self._sock.recv(_RECV_BYTES)
-            except (TimeoutError, BlockingIOError, InterruptedError):
+            except (BlockingIOError, InterruptedError):
+                if remaining > 0:            # woken without a datagram: wait out the rest
+                    continue
                 return False
             except ConnectionRefusedError:   # nothing listening (ICMP port unreachable): keep waiting
                 if remaining <= 0:

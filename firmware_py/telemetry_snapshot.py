@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 __all__ = ["TelemetrySnapshot"]
 
 
@@ -117,9 +119,13 @@ class TelemetrySnapshot:
         if r is None:
             return cls(t=None, x_hat=(), measured_depth=math.nan, pwm=(), heave_force=0.0, tau_e_hat=(0.0,) * 3,
                        ff_active=False, **common)
-        return cls(t=float(r.t), x_hat=tuple(float(v) for v in r.x_hat[:6]), measured_depth=float(r.frame.depth),
-                   pwm=tuple(float(v) for v in r.mix.pwm), heave_force=float(r.mix.tau_stages[-1][1]),
-                   tau_e_hat=tuple(float(v) for v in r.tau_e_hat[:3]), ff_active=bool(r.ff_active),
-                   thrust=tuple(float(v) for v in r.mix.thrust_cmd), sigma=tuple(float(v) for v in r.sigma[:3]),
-                   setpoint=tuple(float(v) for v in r.setpoint[:3]),
+        return cls(t=float(r.t), x_hat=_floats(r.x_hat[:6]), measured_depth=float(r.frame.depth),
+                   pwm=_floats(r.mix.pwm), heave_force=float(r.mix.tau_stages[-1][1]),
+                   tau_e_hat=_floats(r.tau_e_hat[:3]), ff_active=bool(r.ff_active),
+                   thrust=_floats(r.mix.thrust_cmd), sigma=_floats(r.sigma[:3]), setpoint=_floats(r.setpoint[:3]),
                    **common)
+
+
+def _floats(values) -> tuple[float, ...]:
+    """``tuple(float(v) for v in values)`` in one call (the snapshot is taken every tick)."""
+    return tuple(np.asarray(values, dtype=float).tolist())

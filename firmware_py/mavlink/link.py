@@ -107,6 +107,8 @@ class MavlinkLink:
         self.state = LinkState(sysid=self.sysid, counters=self.counters)
         self.snapshot: TelemetrySnapshot | None = None
         self._overrides: dict[int, int] = {}          # msg id → interval ns, or -1: disabled
+        self._schedule: tuple[tuple[int, int | None], ...] = ()
+        self._schedule_key: tuple | None = None
         self._next_due: dict[int, int] = {}
         self._interval: dict[int, int | None] = {}
         self.after: list = []                         # messages a command asked for, sent after its ACK
@@ -306,10 +308,23 @@ class MavlinkLink:
                 return
             self.statustext(severity, text)
 
+    def _stream_schedule(self) -> tuple[tuple[int, int | None], ...]:
+        """(message id, interval ns or None) of every scheduled message, in send order.
+
+        Rebuilt only when a parameter or a message's own interval changed (the SR0_* rates
+        and overrides change rarely; reading ~24 of them from the table every tick cost more
+        than the sends), so a change still takes effect on the next tick.
+        """
+        params = self.fw.params
+        key = (id(params), params.version, tuple(self._overrides.items()))   # overrides: usually none
+        if key != self._schedule_key:
+            extra = tuple(mid for mid in self._overrides if mid not in MSG_GROUP and mid != ID["HEARTBEAT"])
+            self._schedule = tuple((mid, self.stream_interval(mid)) for mid in STREAMED + extra)
+            self._schedule_key = key
+        return self._schedule
+
     def _send_streams(self, now: int) -> None:
-        extra = tuple(mid for mid in self._overrides if mid not in MSG_GROUP and mid != ID["HEARTBEAT"])
-        for mid in STREAMED + extra:
-            interval = self.stream_interval(mid)
+        for mid, interval in self._stream_schedule():
             if interval != self._interval.get(mid):
                 self._interval[mid] = interval
                 self._next_due[mid] = now

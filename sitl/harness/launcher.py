@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import select
 import signal
 import socket
 import struct
@@ -42,6 +43,7 @@ from firmware_py.modes import Mode
 from sitl.sea import Sea
 
 from .blas import ONE_BLAS_THREAD
+from .frame_clock import Frame, read_frames
 from .ports import port_is_free
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
@@ -240,6 +242,11 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     _wait_ready(children, opt.ready_timeout_s)
 
 
+_SYSTEM_TIME, _ATTITUDE = 2, 30            # MAVLink message ids
+_CLOCK_IDS = (_SYSTEM_TIME, _ATTITUDE)      # the messages whose time_boot_ms ends the mission
+_TLOG_STAMP = struct.Struct(">Q")           # .tlog: big-endian µs before each frame
+
+
 class _GroundStation:
     """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
 
@@ -262,25 +269,34 @@ class _GroundStation:
         self.conn.mav.set_send_callback(lambda msg: self._log(msg))
 
     def _log(self, m) -> None:
-        """Append one frame to the .tlog, stamped in vehicle time (never going backwards)."""
-        if m.get_type() == "SYSTEM_TIME" and m.time_unix_usec:
-            self._epoch_us = int(m.time_unix_usec) - int(m.time_boot_ms) * 1000
+        """Append one pymavlink message to the .tlog (:meth:`_log_frame`)."""
         t_ms = getattr(m, "time_boot_ms", None)
-        if isinstance(t_ms, int) and m.get_srcSystem() != 255:
+        self._log_frame(m.get_msgId(), m.get_srcSystem(), t_ms if isinstance(t_ms, int) else None,
+                        getattr(m, "time_unix_usec", None), m.get_msgbuf())
+
+    def _log_frame(self, msg_id: int, src: int, t_ms: int | None, unix_us: int | None, buf: bytes) -> None:
+        """Append one frame to the .tlog, stamped in vehicle time (never going backwards)."""
+        if msg_id == _SYSTEM_TIME and unix_us and t_ms is not None:
+            self._epoch_us = int(unix_us) - int(t_ms) * 1000
+        if t_ms is not None and src != 255:
             self._vehicle_us = t_ms * 1000
         self._stamp = max(self._stamp, self._epoch_us + self._vehicle_us)
-        self.tlog.write(struct.pack(">Q", self._stamp & ~3) + m.get_msgbuf())
+        self.tlog.write(_TLOG_STAMP.pack(self._stamp & ~3) + buf)
+
+    def _keep_alive(self) -> None:
+        """Heartbeat every 0.5 s; a LaunchError if a child has died."""
+        if time.monotonic() - self._last_hb > 0.5:
+            self.conn.mav.heartbeat_send(self.mavlink.MAV_TYPE_GCS, self.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            self._last_hb = time.monotonic()
+        for c in self.children:
+            if not c.alive():
+                raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
 
     def pump(self, until, what: str, timeout: float = 30.0):
         """Read messages until ``until(msg)`` is true; heartbeat and watch the children meanwhile."""
         end = time.monotonic() + timeout
         while time.monotonic() < end:
-            if time.monotonic() - self._last_hb > 0.5:
-                self.conn.mav.heartbeat_send(self.mavlink.MAV_TYPE_GCS, self.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-                self._last_hb = time.monotonic()
-            for c in self.children:
-                if not c.alive():
-                    raise LaunchError(f"{c.name} died (status {c.proc.returncode}):\n{c.tail()}")
+            self._keep_alive()
             m = self.conn.recv_match(blocking=True, timeout=0.05)
             if m is None or m.get_type() == "BAD_DATA":
                 continue
@@ -302,15 +318,61 @@ class _GroundStation:
         t_wall0 = time.monotonic()
         end_ms = int(round(duration * 1000))
         with ProgressBar(duration, title, enabled=progress) as bar:
-            def mission_over(m) -> bool:
-                if m.get_type() in ("SYSTEM_TIME", "ATTITUDE"):
-                    bar.update(m.time_boot_ms / 1000.0)
-                    return bool(m.time_boot_ms >= end_ms)
-                return False
-            self.pump(mission_over, "the end of the mission", timeout=duration * 10 + 600)
+            self._follow_clock(end_ms, bar, timeout=duration * 10 + 600)
         wall = time.monotonic() - t_wall0
         self.command(self.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0)
         return wall
+
+    def _follow_clock(self, end_ms: int, bar, timeout: float) -> None:
+        """Log the downlink until SYSTEM_TIME or ATTITUDE says the vehicle's clock reached ``end_ms``.
+
+        The flight's hot loop: each datagram's frames are read by :func:`~.frame_clock.read_frames`
+        (checked, not decoded), pymavlink only for what that does not take; children and
+        heartbeats are seen to every 50 ms of wall time rather than every message.
+        """
+        conn, deadline, next_check = self.conn, time.monotonic() + timeout, 0.0
+        readable = select.poll()
+        readable.register(conn.port, select.POLLIN)
+        pending = list(iter(lambda: conn.mav.parse_char(b""), None))   # what pymavlink had buffered
+        while True:
+            now = time.monotonic()
+            if now >= next_check:
+                if now > deadline:
+                    raise LaunchError("timed out waiting for the end of the mission")
+                self._keep_alive()
+                next_check = now + 0.05
+            if not pending and not readable.poll(50):
+                continue
+            while True:
+                if pending:
+                    clocks = [self._log_message(m) for m in pending]
+                    pending = []
+                else:
+                    data = conn.recv()          # pymavlink's raw read (keeps its peer bookkeeping)
+                    if not data:
+                        break
+                    frames = read_frames(data)
+                    if frames is None:
+                        clocks = [self._log_message(m) for m in conn.mav.parse_buffer(data) or ()]
+                    else:
+                        clocks = [self._log_raw(f) for f in frames]
+                for t_ms in clocks:
+                    if t_ms is not None:
+                        bar.update(t_ms / 1000.0)
+                        if t_ms >= end_ms:
+                            return
+
+    def _log_raw(self, f: Frame) -> int | None:
+        """Log a checked frame; its time_boot_ms if it is a SYSTEM_TIME or ATTITUDE (the mission's clock)."""
+        self._log_frame(f.msg_id, f.src_system, f.time_boot_ms, f.time_unix_usec, f.buf)
+        return f.time_boot_ms if f.msg_id in _CLOCK_IDS else None
+
+    def _log_message(self, m) -> int | None:
+        """:meth:`_log_raw` for a message pymavlink parsed (bad data is neither logged nor read)."""
+        if m.get_type() == "BAD_DATA":
+            return None
+        self._log(m)
+        return int(m.time_boot_ms) if m.get_msgId() in _CLOCK_IDS else None
 
     def close(self) -> None:
         self.conn.close()
