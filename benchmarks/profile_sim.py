@@ -7,11 +7,12 @@ The firmware, the physics server and the forecast service each run under
 Python thread, on its own CPU time); the launcher (the ground station) is
 profiled in this process, also on CPU time. Writes, per process, the top
 functions by own and by cumulative time (µs per control tick) to
-``benchmarks/results/profile_sim.json`` and prints the own-time tables. Times are
-CPU time under the profiler (waiting on a socket is not counted), which inflates Python-call-heavy code several-fold: read
-them as proportions. Compare the firmware's ``run_tick`` share with
-``python -m benchmarks.profile_mission`` (the same tick in process): the rest of
-each process is what crossing processes costs.
+``benchmarks/results/profile_sim.json`` and prints the own-time tables. Times
+are CPU time under the profiler (waiting on a socket is not counted), which
+inflates Python-call-heavy code several-fold: read them as proportions. Compare
+the firmware's ``run_tick`` share with ``python -m benchmarks.profile_mission``
+(the same tick in process): the rest of each process is what crossing
+processes costs.
 """
 from __future__ import annotations
 

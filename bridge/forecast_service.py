@@ -85,22 +85,20 @@ class ForecastService:
         self._next_publish = -float("inf")
 
     # ------------------------------------------------------------------ inputs
-    def _take_buoy(self) -> None:
-        while True:
-            sample = self._buoy.try_recv()
-            if sample is None:
-                return
-            try:
-                rec = decode_buoy(sample.payload.to_bytes())
-            except BuoyDecodeError:
-                self.counters["buoy_rejected"] += 1
-                continue
-            self.counters["buoy_records"] += 1
-            self._t, self._eta = append_record(self._t, self._eta, rec.t, rec.eta, rec.dt)
-            cut = self._t > self._t[-1] - 2.0 * self.window
-            self._t, self._eta = self._t[cut], self._eta[cut]
-            self.buoy_x = rec.x
-            self.now = float(self._t[-1])
+    def _take_buoy(self, payload: bytes) -> bool:
+        """Append one buoy record to the held one; False if it was rejected."""
+        try:
+            rec = decode_buoy(payload)
+        except BuoyDecodeError:
+            self.counters["buoy_rejected"] += 1
+            return False
+        self.counters["buoy_records"] += 1
+        self._t, self._eta = append_record(self._t, self._eta, rec.t, rec.eta, rec.dt)
+        cut = self._t > self._t[-1] - 2.0 * self.window
+        self._t, self._eta = self._t[cut], self._eta[cut]
+        self.buoy_x = rec.x
+        self.now = float(self._t[-1])
+        return True
 
     # ------------------------------------------------------------------ outputs
     def make_forecast(self) -> Forecast | None:
@@ -123,21 +121,21 @@ class ForecastService:
             self.last_error = str(exc)
             return None
 
-    def step(self) -> None:
-        """Take buoy data, publish when due, answer queries. Never blocks.
+    def step(self) -> bool:
+        """Take buoy data, publish when due, answer queries. Never blocks; True if a buoy record came.
 
         Publishing is paced on the vehicle's clock (the buoy's time), every
         1/rate_hz seconds of it, so a simulation run faster than real time gets
-        its forecasts as often, in its own time, as a real-time one.
+        its forecasts as often, in its own time, as a real-time one: each record
+        is taken on its own and followed by the forecast it makes due, however
+        many records a step finds queued (a mission flown at full speed sends
+        them faster than one step of :meth:`run` apart).
         """
-        self._take_buoy()
-        if self.now is not None and self.now >= self._next_publish:
-            self._next_publish = self.now + self.period
-            f = self.make_forecast()
-            if f is not None:
-                self.latest = encode_forecast(f)
-                self._pub.put(self.latest)
-                self.counters["published"] += 1
+        took = False
+        while (sample := self._buoy.try_recv()) is not None:
+            if self._take_buoy(sample.payload.to_bytes()):
+                took = True
+                self._publish_if_due()
         while True:
             q = self._queries.try_recv()
             if q is None:
@@ -145,11 +143,24 @@ class ForecastService:
             self.counters["queries"] += 1
             if self.latest is not None:
                 q.reply(self._latest_key, self.latest)
+        return took
 
-    def run(self, stop: threading.Event, tick_s: float = 0.02) -> None:
+    def _publish_if_due(self) -> None:
+        """Publish a forecast if 1/rate_hz of the vehicle's clock has passed since the last one."""
+        if self.now is not None and self.now >= self._next_publish:
+            self._next_publish = self.now + self.period
+            f = self.make_forecast()
+            if f is not None:
+                self.latest = encode_forecast(f)
+                self._pub.put(self.latest)
+                self.counters["published"] += 1
+
+    def run(self, stop: threading.Event, tick_s: float = 0.02, busy_tick_s: float = 0.002) -> None:
+        """Step until ``stop``: every ``tick_s`` (wall s) when idle, every ``busy_tick_s`` while records
+        arrive (a vehicle at full speed sends one every few ms; the idle rate would delay each forecast
+        by up to ``tick_s`` of wall time, seconds of its clock)."""
         while not stop.is_set():
-            self.step()
-            stop.wait(tick_s)
+            stop.wait(busy_tick_s if self.step() else tick_s)
 
     def close(self) -> None:
         for h in (self._token, self._pub, self._buoy, self._queries):

@@ -69,6 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--site", default=None)
     p.add_argument("--no-forecast", action="store_true", help="no zenoh forecast subscriber")
     p.add_argument("--signing-key", default=None, help="file with the 32-byte MAVLink 2 signing key")
+    p.add_argument("--hal-wait", type=float, default=None, metavar="S",
+                   help="wait up to S wall seconds for the plant's first state (default: the larger of 2 s and "
+                        "4 x SIM_JSON_TMO); a launcher that starts the plant alongside gives it its start-up time")
     p.add_argument("--hold-until-armed", action="store_true",
                    help="keep simulated time still after the first tick until the vehicle is armed")
     p.add_argument("--realtime", choices=("auto", "on", "off"), default="auto",
@@ -143,7 +146,8 @@ def main(argv: list[str] | None = None) -> int:
                        lockstep=args.companion_lockstep)
     session, forecast_link = (None, None) if args.no_forecast else _open_forecast_link(args, fw)
     try:
-        hal.start()     # after the forecast subscriber exists: the plant's first buoy record may trigger a forecast
+        hal.start(args.hal_wait)   # after the forecast subscriber exists: the plant's first buoy record may
+        #                            trigger a forecast
     except TimeoutError as exc:
         print(f"wavekeep firmware: {exc}", file=sys.stderr)
         if session is not None:

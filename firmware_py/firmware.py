@@ -36,6 +36,7 @@ from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
+from .tick_columns import TICK_COLUMNS
 
 __all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
 
@@ -58,18 +59,6 @@ class TickRecord:
     d_hat: np.ndarray = field(default_factory=lambda: np.zeros(3))      # EKF's disturbance estimate [X, Z, M]
     nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
     target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # saturation preview's [x, z, θ] (m, rad)
-
-
-TICK_COLUMNS = (
-    ["x_hat", "z_hat", "theta_hat", "u_hat", "w_hat", "q_hat", "sigma_x", "sigma_z", "sigma_theta"]
-    + ["sp_x", "sp_z", "sp_theta"]
-    + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
-    + [f"pwm{i}" for i in range(1, 9)]
-    + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
-    + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
-    + ["nis", "nis_dof", "prv_x", "prv_z"]
-)
-"""What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
 
 
 def tick_row(r: TickRecord) -> list[float]:

@@ -45,6 +45,7 @@ __all__ = ["DEFAULT_TIMEOUT_S", "JSONSITLHAL", "HALCounters", "JSONState"]
 DEFAULT_TIMEOUT_S = 0.5          # wall seconds without a reply before the plant counts as silent
 TIMEOUT_PARAM = "SIM_JSON_TMO"   # used instead of the default if the parameter table defines it
 _RECV_BYTES = 65536
+_REFUSED_RETRY_S = 0.005         # wall seconds between tries while nothing listens at the plant's port
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,9 @@ class JSONSITLHAL(HAL):
 
         The hello is re-sent every ``self.timeout_s`` until ``timeout_s``
         (default: the larger of 2 s and 4 × ``self.timeout_s``) has passed;
-        then :class:`TimeoutError`.
+        then :class:`TimeoutError`. A hello refused outright (nothing listening
+        yet: a plant still starting) is re-sent after a few ms rather than after
+        ``self.timeout_s``, so the first state comes as soon as the plant is up.
         """
         total = max(2.0, 4.0 * self.timeout_s) if timeout_s is None else float(timeout_s)
         deadline = time.monotonic() + total
@@ -152,7 +155,7 @@ class JSONSITLHAL(HAL):
         while True:
             self._send(np.full(PWM_CHANNELS, NEUTRAL_PWM_US))
             wait = min(self.timeout_s, deadline - time.monotonic())
-            if wait > 0 and self._await_reply(wait) and self.state is not None:
+            if wait > 0 and self._await_reply(wait, until_refused=True) and self.state is not None:
                 return self.state
             if time.monotonic() >= deadline:
                 raise TimeoutError(f"no JSON SITL physics server answered at udp {self.address[0]}:"
@@ -211,8 +214,11 @@ class JSONSITLHAL(HAL):
         except OSError:          # ECONNREFUSED from an earlier ICMP unreachable, or no route
             self.counters.send_errors += 1
 
-    def _await_reply(self, wait_s: float) -> bool:
+    def _await_reply(self, wait_s: float, until_refused: bool = False) -> bool:
         """Wait up to ``wait_s`` (wall) for the reply to the current frame; True if it came.
+
+        ``until_refused``: give up (after ``_REFUSED_RETRY_S``) if the packet was refused (ICMP port
+        unreachable), instead of waiting out ``wait_s`` for a reply that cannot come.
 
         The socket stays non-blocking and the wait is one ``poll``: switching the socket's
         timeout for every wait cost two ``fcntl`` calls each time, twice a tick.
@@ -231,7 +237,9 @@ class JSONSITLHAL(HAL):
             except ConnectionRefusedError:   # nothing listening (ICMP port unreachable): keep waiting
                 if remaining <= 0:
                     return False
-                time.sleep(min(remaining, 0.005))
+                time.sleep(min(remaining, _REFUSED_RETRY_S))
+                if until_refused:
+                    return False
                 continue
             if self._accept(data):
                 return True

@@ -59,9 +59,21 @@ def _jonswap_shape(x: np.ndarray, gamma: float) -> np.ndarray:
     return out
 
 
+_KNOWN_NORMS = {3.3: 0.30498972193425744}
+"""γ → :func:`_jonswap_norm_quad`'s result, to the bit (tests/test_sea.py checks it), for the γ of every
+sea config: each process of ``wavekeep sim`` (the launcher, the plant, the forecast service) would
+otherwise import ``scipy.integrate`` (0.3–0.7 s) at start-up for this one number."""
+
+
 @lru_cache(maxsize=64)
 def _jonswap_norm(gamma: float) -> float:
-    """∫₀^∞ shape(x) dx, so the spectrum integrates exactly to Hs²/16.
+    """∫₀^∞ shape(x) dx, so the spectrum integrates exactly to Hs²/16 (:func:`_jonswap_norm_quad`)."""
+    known = _KNOWN_NORMS.get(gamma)
+    return known if known is not None else _jonswap_norm_quad(gamma)
+
+
+def _jonswap_norm_quad(gamma: float) -> float:
+    """∫₀^∞ shape(x) dx by adaptive quadrature.
 
     For γ = 1 (Pierson–Moskowitz) the integral is 1/5 analytically; the
     DNV closed-form factor (1 − 0.287 ln γ) approximates 0.2/∫ to about 1 %.

@@ -7,6 +7,8 @@ never from numbers captured from the code's own output.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
@@ -514,3 +516,14 @@ def test_buoy_sees_the_wave_earlier_by_dx_over_c():
     np.testing.assert_allclose(z_buoy, z_vehicle_later, atol=1e-10)
     # the same record is *not* what the vehicle sees at the same instant
     assert np.max(np.abs(z_buoy - sea.elevation(0.0, t))) > 0.1
+
+
+def test_the_tabulated_jonswap_norms_are_the_quadratures_to_the_bit():
+    """sitl.sea skips scipy.integrate for the configs' γ: the table must be quad's own result, bit for bit."""
+    from sitl.sea import _KNOWN_NORMS, _jonswap_norm, _jonswap_norm_quad
+    for gamma, norm in _KNOWN_NORMS.items():
+        assert _jonswap_norm_quad(gamma) == norm
+        assert _jonswap_norm(gamma) == norm
+    configs = sorted((Path(__file__).resolve().parent.parent / "configs" / "sea").rglob("*.yaml"))
+    gammas = {load_sea_config(p)["spectrum"].get("gamma") for p in configs}
+    assert gammas - {None} <= set(_KNOWN_NORMS), gammas

@@ -92,7 +92,7 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
                                   "link": stats.get("link"), "events": stats.get("events")},
                     "speedup": opt.speedup, "wall_time_s": wall,
                     "speed_x_realtime": duration / wall if wall > 0 else None, "processes": statuses})
-    write_run(RunResult(results, log), out)
+    write_run(RunResult(results, log), out, plots=opt.plots)
     return results
 
 

@@ -46,8 +46,7 @@ from .blas import ONE_BLAS_THREAD
 from .frame_clock import Frame, read_frames
 from .ports import port_is_free
 from .progress import ProgressBar
-from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
-from .run import write_run
+from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_run
 from .spec import RunSpec
 
 __all__ = ["LaunchError", "SimOptions", "launch"]
@@ -71,6 +70,7 @@ class SimOptions:
     zenoh_port: int = 7447
     ready_timeout_s: float = 60.0
     extra_params: list[str] = field(default_factory=list)
+    plots: bool = True            # draw time_history.png (matplotlib: about a second)
 
 
 def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
@@ -154,12 +154,18 @@ def launch(opt: SimOptions, progress=None) -> dict:
     if spec.ff:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
     children: list[_Child] = []
+    gcs = None
     try:
+        # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
+        # socket instead of being lost, so the flight need not wait a second for the next one.
+        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
-        wall = _fly(opt, setpoint, duration, f"sim {sea.name} {spec.label}", out, children, progress)
+        wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
     except KeyboardInterrupt:
         raise LaunchError("interrupted", 130) from None
     finally:
+        if gcs is not None:
+            gcs.close()
         statuses = {c.name: c.stop() for c in reversed(children)}
     rate = mcfg["control_rate"]
     log = _merge_logs_of(opt, sea, duration, rate, out)
@@ -173,13 +179,14 @@ def launch(opt: SimOptions, progress=None) -> dict:
         "speed_x_realtime": duration / wall if wall > 0 else None,
         "processes": statuses,
     })
-    write_run(RunResult(results, log), out)
+    write_run(RunResult(results, log), out, plots=opt.plots)
     return results
 
 
-def start_world(opt: SimOptions, seed: int, duration: float, out: Path,
-                children: list[_Child]) -> tuple[list[str], list[str], dict[str, str], Path]:
-    """The forecast service (C-PD+FF only) and the plant, each waited for until ready.
+def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+                wait_plant: bool = True) -> tuple[list[str], list[str], dict[str, str], Path]:
+    """The forecast service (C-PD+FF only) and the plant, each waited for until ready (the plant only if
+    ``wait_plant``: a caller may start the vehicle alongside it and wait for both).
 
     Returns what the vehicle's processes are started with: the CLI prefix, the
     mission/vehicle options, the environment and the zenoh network config.
@@ -212,17 +219,23 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path,
     if spec.ff:
         plant += ["--buoy-network", str(netcfg)]
     children.append(_Child("plant", plant, out / "plant.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    if wait_plant:
+        _wait_ready(children, opt.ready_timeout_s)
     return cli, configs, env, netcfg
 
 
 def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
                      water_depth: float) -> None:
-    """The world (:func:`start_world`), then the firmware, waited for until ready (told the site's
-    ``water_depth`` (m) for its DVL model)."""
+    """The world (:func:`start_world`) and the firmware, waited for until ready (told the site's
+    ``water_depth`` (m) for its DVL model).
+
+    The firmware starts as soon as the forecast service is up, while the plant is still starting:
+    the two interpreters' start-ups (imports, configs; about a second each) overlap, and the
+    firmware's HAL says hello until the plant answers (``--hal-wait``).
+    """
     spec = opt.spec
-    cli, configs, env, netcfg = start_world(opt, seed, duration, out, children)
-    firmware = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}",
+    cli, configs, env, netcfg = start_world(opt, seed, duration, out, children, wait_plant=False)
+    firmware = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}", "--hal-wait", f"{opt.ready_timeout_s:g}",
                 "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--seed", str(seed), *configs,
                 "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--network", str(netcfg)]
     firmware += ["--speedup", str(opt.speedup or 0)]      # explicit: 0 is unpaced (the default with --mavlink is 1)
@@ -379,23 +392,19 @@ class _GroundStation:
         self.tlog.close()
 
 
-def _fly(opt: SimOptions, setpoint: np.ndarray, duration: float, title: str, out: Path,
-         children: list[_Child], progress) -> float:
+def _fly(opt: SimOptions, gcs: _GroundStation, setpoint: np.ndarray, duration: float, title: str,
+         progress) -> float:
     """Fly the mission as a ground station: GUIDED on the station, arm, follow to the end; the wall time."""
-    gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
     mav = gcs.mavlink
-    try:
-        gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
-        if opt.spec.ff:
-            gcs.pump(lambda m: m.get_type() == "NAMED_VALUE_FLOAT" and m.name.rstrip("\x00") == "FF_AGE"
-                     and m.value >= 0, "a valid forecast on the vehicle", timeout=60.0)
-        gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, int(Mode.GUIDED))
-        gcs.conn.mav.set_position_target_local_ned_send(0, 1, 1, mav.MAV_FRAME_LOCAL_NED, 0b0000_1111_1111_1000,
-                                                        setpoint[0], 0.0, setpoint[1], 0, 0, 0, 0, 0, 0, 0, 0)
-        time.sleep(0.2)
-        return gcs.fly_armed(duration, title, progress)
-    finally:
-        gcs.close()
+    gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
+    if opt.spec.ff:
+        gcs.pump(lambda m: m.get_type() == "NAMED_VALUE_FLOAT" and m.name.rstrip("\x00") == "FF_AGE"
+                 and m.value >= 0, "a valid forecast on the vehicle", timeout=60.0)
+    gcs.command(mav.MAV_CMD_DO_SET_MODE, 1, int(Mode.GUIDED))
+    gcs.conn.mav.set_position_target_local_ned_send(0, 1, 1, mav.MAV_FRAME_LOCAL_NED, 0b0000_1111_1111_1000,
+                                                    setpoint[0], 0.0, setpoint[1], 0, 0, 0, 0, 0, 0, 0, 0)
+    time.sleep(0.2)
+    return gcs.fly_armed(duration, title, progress)
 
 
 def _merge_logs_of(opt: SimOptions, sea: Sea, duration: float, rate: float, out: Path) -> np.ndarray:

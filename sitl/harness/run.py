@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -29,7 +28,7 @@ from sitl.plant import Plant
 from sitl.sea import Sea
 
 from .progress import ProgressBar
-from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_results
+from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_run
 from .spec import RunSpec
 
 __all__ = ["DSWPFeeder", "MissionSetup", "build_mission", "run_mission", "write_run"]
@@ -188,11 +187,3 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     results.update(wall_time_s=wall, speed_x_realtime=duration / wall if wall > 0 else None)
     return RunResult(results, log)
 
-
-def write_run(result: RunResult, out: str | Path, plots: bool = True) -> Path:
-    """DIR/results.json, DIR/timeseries.csv and (optionally) DIR/time_history.png."""
-    out = write_results(result, out)
-    if plots:
-        from .plots import plot_run  # matplotlib: imported only when a figure is drawn
-        plot_run(result, out / "time_history.png")
-    return out

@@ -53,6 +53,7 @@ def add_parsers(sub) -> None:
                    help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
+    p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     o.add_out(p, required=False, default="runs/sim")
     p.set_defaults(func=cmd_sim)
 
@@ -98,7 +99,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
     out = o.check_out(args.out, force=args.force)
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
-                     gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"])
+                     gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
     try:
         if args.companion:
             from ..companion_launch import launch_companion
@@ -112,7 +113,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
     print(format_table({r["label"]: r}))
-    print(f"wrote {out}: results.json, timeseries.csv, time_history.png, mission.tlog, *.log, run.json")
+    print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
+          + ", mission.tlog, *.log, run.json")
     return 0
 
 

@@ -1,0 +1,19 @@
+"""The columns of the firmware's tick log: one row per control tick (``Firmware.on_tick`` → ``tick_row``).
+
+Apart from :mod:`firmware_py.firmware` so that a reader of the log (the launcher merging the
+firmware's CSV, the results schema) need not import the firmware itself (numba, scipy: ~0.5 s).
+"""
+from __future__ import annotations
+
+__all__ = ["TICK_COLUMNS"]
+
+TICK_COLUMNS = (
+    ["x_hat", "z_hat", "theta_hat", "u_hat", "w_hat", "q_hat", "sigma_x", "sigma_z", "sigma_theta"]
+    + ["sp_x", "sp_z", "sp_theta"]
+    + ["tau_X", "tau_Z", "tau_M", "tau_ff_X", "tau_ff_Z", "tau_ff_M", "tauE_hat_X", "tauE_hat_Z", "tauE_hat_M"]
+    + [f"pwm{i}" for i in range(1, 9)]
+    + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
+    + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
+    + ["nis", "nis_dof", "prv_x", "prv_z"]
+)
+"""What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
