@@ -146,8 +146,7 @@ def main(argv: list[str] | None = None) -> int:
                        lockstep=args.companion_lockstep)
     session, forecast_link = (None, None) if args.no_forecast else _open_forecast_link(args, fw)
     try:
-        hal.start(args.hal_wait)   # after the forecast subscriber exists: the plant's first buoy record may
-        #                            trigger a forecast
+        hal.start(args.hal_wait)   # after the forecast subscriber: the plant's first buoy record may make one
     except TimeoutError as exc:
         print(f"wavekeep firmware: {exc}", file=sys.stderr)
         if session is not None:

@@ -17,6 +17,7 @@ import re
 import struct
 from dataclasses import dataclass
 from functools import cache
+from typing import NamedTuple
 
 __all__ = ["Frame", "read_frames"]
 
@@ -27,8 +28,7 @@ _SIGNATURE_LEN = 13
 _TOKEN = re.compile(r"(\d*)([a-zA-Z?])")
 
 
-@dataclass(frozen=True)
-class Frame:
+class Frame(NamedTuple):
     """One checked MAVLink 2 frame: its id, sender, vehicle time fields (None where it has none) and bytes."""
 
     msg_id: int
@@ -40,7 +40,7 @@ class Frame:
 
 @dataclass(frozen=True)
 class _Layout:
-    crc_extra: int
+    crc_extra: bytes                     # the message's CRC_EXTRA byte, appended to the checksummed bytes
     payload_len: int                     # untruncated payload (bytes)
     boot_ms: struct.Struct | None        # time_boot_ms (uint32) at its offset, when the message has it
     unix_us: struct.Struct | None        # time_unix_usec (uint64) at its offset, when it has it
@@ -69,13 +69,14 @@ def _layouts() -> dict[int, _Layout]:
             where = fields.get(name)
             return struct.Struct(f"<{where[0]}x{code}") if where is not None and where[1] == code else None
 
-        table[msg_id] = _Layout(cls.crc_extra, cls.unpacker.size, at("time_boot_ms", "I"), at("time_unix_usec", "Q"))
+        table[msg_id] = _Layout(bytes((cls.crc_extra,)), cls.unpacker.size, at("time_boot_ms", "I"),
+                                at("time_unix_usec", "Q"))
     return table
 
 
 def read_frames(data: bytes) -> list[Frame] | None:
     """The frames of one datagram, checked; None if any part of it needs pymavlink's parser instead."""
-    from pymavlink.generator.mavcrc import x25crc
+    from pymavlink.dialects.v20.ardupilotmega import x25crc  # pymavlink's own (fastcrc when installed)
 
     layouts = _layouts()
     frames, i, n = [], 0, len(data)
@@ -89,12 +90,12 @@ def read_frames(data: bytes) -> list[Frame] | None:
         lay = layouts.get(low | high << 16)
         if end > n or lay is None or mlen > lay.payload_len:
             return None
-        crc = x25crc(data[i + 1:i + _HEADER.size + mlen])
-        crc.accumulate(bytes((lay.crc_extra,)))
-        if crc.crc != int.from_bytes(data[i + _HEADER.size + mlen:i + _HEADER.size + mlen + 2], "little"):
+        body = i + _HEADER.size
+        if x25crc(data[i + 1:body + mlen] + lay.crc_extra).crc != int.from_bytes(data[body + mlen:body + mlen + 2],
+                                                                                   "little"):
             return None
         # MAVLink 2 drops a payload's trailing zero bytes: put them back before reading a field
-        payload = data[i + _HEADER.size:i + _HEADER.size + mlen] + bytes(lay.payload_len - mlen)
+        payload = data[body:body + mlen] + bytes(lay.payload_len - mlen)
         boot = lay.boot_ms.unpack_from(payload)[0] if lay.boot_ms is not None else None
         unix = lay.unix_us.unpack_from(payload)[0] if lay.unix_us is not None else None
         frames.append(Frame(low | high << 16, src, boot, unix, bytes(data[i:end])))
