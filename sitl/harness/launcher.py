@@ -276,7 +276,7 @@ class _GroundStation:
         self.tlog = open(tlog, "wb")  # noqa: SIM115 — closed in close()
         self.children = children
         self._last_hb = 0.0
-        self._epoch_us = int(time.time() * 1e6)     # until the vehicle's SYSTEM_TIME says
+        self._epoch_us: int | None = None            # Unix µs at vehicle time 0, from SYSTEM_TIME
         self._vehicle_us = 0
         self._stamp = 0
         self.conn.mav.set_send_callback(lambda msg: self._log(msg))
@@ -293,6 +293,10 @@ class _GroundStation:
             self._epoch_us = int(unix_us) - int(t_ms) * 1000
         if t_ms is not None and src != 255:
             self._vehicle_us = t_ms * 1000
+        if self._epoch_us is None:
+            # Until a SYSTEM_TIME says, the wall clock at the first frame logged (the station listens
+            # before the vehicle starts: its own start-up time is no part of the vehicle's log)
+            self._epoch_us = int(time.time() * 1e6)
         self._stamp = max(self._stamp, self._epoch_us + self._vehicle_us)
         self.tlog.write(_TLOG_STAMP.pack(self._stamp & ~3) + buf)
 
