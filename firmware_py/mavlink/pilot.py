@@ -39,6 +39,7 @@ surftrak)."""
 CAM, LIGHTS1, LIGHTS2, VIDEO = 7, 8, 9, 10          # indexes in LinkState.rc (RC channels 8-11)
 PWM_LO, PWM_HI = RC_NEUTRAL - RC_RANGE, RC_NEUTRAL + RC_RANGE
 SERVO_FREE = {0, 1, *range(51, 67)}                 # functions DO_SET_SERVO may drive
+_AUX_FUNCTION_PARAMS = tuple((ch, f"SERVO{ch}_FUNCTION") for ch in range(9, 17))   # read every link tick
 
 
 class Joystick:
@@ -179,8 +180,8 @@ class Joystick:
 
     def _refresh_servos(self) -> None:
         p, servo = self.fw.params, self.link.state.servo
-        for ch in range(9, 17):
-            function = int(p[f"SERVO{ch}_FUNCTION"])
+        for ch, name in _AUX_FUNCTION_PARAMS:
+            function = int(p[name])
             value = self._source(ch, function)
             if value is None:
                 self._servo_src.pop(ch, None)
