@@ -72,7 +72,7 @@ def udp_round_trip(n: int = 5000, request: int = 40, reply: int = 600) -> dict:
             "mean_us": sum(times) / n / 1e3, "p90_us": times[int(n * 0.9)] / 1e3}
 
 
-def _one(duration: float, out: Path) -> dict:
+def _one(duration: float, out: Path, extra: list[str]) -> dict:
     """One ``wavekeep sim`` in this process (the tree is whatever is first on the path); its figures."""
     from sitl.harness import launcher
     from sitl.harness.cli import main
@@ -101,7 +101,7 @@ def _one(duration: float, out: Path) -> dict:
     launcher._Child.stop = stop  # type: ignore[method-assign]
     t0 = time.perf_counter()
     status = main(["sim", "--case", "W3", "--controller", "cpd_ff", "--duration", str(duration),
-                   "--out", str(out), "--force"])
+                   "--out", str(out), "--force", *extra])
     wall = time.perf_counter() - t0
     me = resource.getrusage(resource.RUSAGE_SELF)
     cpu["launcher"] = me.ru_utime + me.ru_stime
@@ -110,12 +110,12 @@ def _one(duration: float, out: Path) -> dict:
             "rmse": r["rmse"], "ticks": int(round(duration * r["rate_hz"]))}
 
 
-def _run(tree: Path, duration: float, tmp: Path) -> dict:
+def _run(tree: Path, duration: float, tmp: Path, extra: list[str]) -> dict:
     """One fresh process of ``--one`` with ``tree`` first on the path; its figures (and its own wall)."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", str(tmp), "--duration",
-                        str(duration)], cwd=tree, env=env, capture_output=True, text=True, timeout=1800)
+                        str(duration), *extra], cwd=tree, env=env, capture_output=True, text=True, timeout=1800)
     wall = time.perf_counter() - t0
     if p.returncode != 0:
         raise RuntimeError(f"{tree}: exit {p.returncode}: {p.stderr[-2000:]}")
@@ -126,12 +126,14 @@ def _run(tree: Path, duration: float, tmp: Path) -> dict:
 
 def compare(before: Path | None, repeat: int, duration: float) -> dict:
     """Interleaved runs of each tree; medians and the after/before ratios."""
-    trees = {"after": ROOT} if before is None else {"before": before, "after": ROOT}
+    trees: dict[str, tuple[Path, list[str]]] = {"after": (ROOT, []), "after_no_plots": (ROOT, ["--no-plots"])}
+    if before is not None:
+        trees = {"before": (before, []), **trees}
     samples: dict[str, list[dict]] = {k: [] for k in trees}
     with tempfile.TemporaryDirectory(prefix="wk-bench-sim-") as tmp:
         for i in range(repeat):
-            for name, tree in trees.items():
-                samples[name].append(_run(tree, duration, Path(tmp) / f"{name}{i}"))
+            for name, (tree, extra) in trees.items():
+                samples[name].append(_run(tree, duration, Path(tmp) / f"{name}{i}", extra))
                 s = samples[name][-1]
                 print(f"{name} #{i}: command {s['command_s']:.1f} s, flight {s['flight_s']:.1f} s, CPU "
                       + ", ".join(f"{k} {v:.1f}" for k, v in sorted(s["cpu_s"].items())), flush=True)
@@ -150,6 +152,7 @@ def compare(before: Path | None, repeat: int, duration: float) -> dict:
         b, a = summary["before"], summary["after"]
         summary["ratio_before_over_after"] = {
             "command": b["command_s"] / a["command_s"], "flight": b["flight_s"] / a["flight_s"],
+            "command_vs_after_no_plots": b["command_s"] / summary["after_no_plots"]["command_s"],
             "cpu_total": b["cpu_total_s"] / a["cpu_total_s"],
             **{f"cpu_{p}": b["cpu_s"][p] / a["cpu_s"][p] for p in PROCESSES if a["cpu_s"][p] > 0},
         }
@@ -165,10 +168,12 @@ def main(argv: list[str] | None = None) -> dict | None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--duration", type=float, default=600.0)
     ap.add_argument("--one", type=Path, default=None, help=argparse.SUPPRESS)
-    args = ap.parse_args(argv)
+    args, extra = ap.parse_known_args(argv)
     if args.one is not None:
-        print("RESULT:" + json.dumps(_one(args.duration, args.one)))
+        print("RESULT:" + json.dumps(_one(args.duration, args.one, extra)))
         return None
+    if extra:
+        ap.error(f"unrecognised arguments: {' '.join(extra)}")
     from benchmarks.common import write  # here: a ``--one`` process imports only the tree it measures
 
     figures = compare(args.before, args.repeat, args.duration)
