@@ -1,5 +1,5 @@
 """Run every benchmark (``make bench``)."""
-from benchmarks import bench_campaign, bench_control, bench_links, bench_plant, bench_speed, bench_timing
+from benchmarks import bench_campaign, bench_control, bench_links, bench_plant, bench_sim, bench_speed, bench_timing
 
 if __name__ == "__main__":
     bench_plant.main()
@@ -8,3 +8,4 @@ if __name__ == "__main__":
     bench_timing.main()
     bench_campaign.main()
     bench_speed.main([])
+    bench_sim.main(["--repeat", "1"])
