@@ -46,7 +46,8 @@ from .blas import ONE_BLAS_THREAD
 from .frame_clock import Frame, read_frames
 from .ports import port_is_free
 from .progress import ProgressBar
-from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_run
+from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
+from .run_files import write_run
 from .spec import RunSpec
 
 __all__ = ["LaunchError", "SimOptions", "launch"]

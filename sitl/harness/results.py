@@ -21,7 +21,7 @@ from .metrics import station_keeping_metrics
 from .spec import RunSpec
 
 __all__ = ["TIMESERIES_COLUMNS", "RunResult", "ekf_consistency", "elevation_along", "mission_results",
-           "write_results", "write_run"]
+           "write_results"]
 
 TIMESERIES_COLUMNS = (
     "t", "x", "z", "theta", "u", "w", "q",             # truth at the tick
@@ -111,13 +111,4 @@ def write_results(result: RunResult, out: str | Path) -> Path:
     (out / "results.json").write_text(json.dumps(result.results, indent=2))
     np.savetxt(out / "timeseries.csv", result.timeseries, delimiter=",", header=",".join(TIMESERIES_COLUMNS),
                comments="", fmt="%.6g")
-    return out
-
-
-def write_run(result: RunResult, out: str | Path, plots: bool = True) -> Path:
-    """DIR/results.json, DIR/timeseries.csv and (optionally) DIR/time_history.png."""
-    out = write_results(result, out)
-    if plots:
-        from .plots import plot_run  # matplotlib: imported only when a figure is drawn
-        plot_run(result, out / "time_history.png")
     return out

@@ -28,7 +28,8 @@ from sitl.plant import Plant
 from sitl.sea import Sea
 
 from .progress import ProgressBar
-from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results, write_run
+from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
+from .run_files import write_run
 from .spec import RunSpec
 
 __all__ = ["DSWPFeeder", "MissionSetup", "build_mission", "run_mission", "write_run"]
