@@ -199,3 +199,50 @@ def test_service_oracle_forecasts_follow_the_buoy_clock_and_die_with_the_service
     assert handoff.current(f.valid_until + 0.05) is None
     buoy.close()
     link.close()
+
+
+class _Queue:
+    """A zenoh handler's receiver, or a publisher, without zenoh: what was put, taken in order."""
+
+    def __init__(self, items=()):
+        self.items = list(items)
+
+    def try_recv(self):
+        return self.items.pop(0) if self.items else None
+
+    def put(self, payload: bytes) -> None:
+        self.items.append(payload)
+
+    def undeclare(self) -> None:
+        pass
+
+
+class _Sample:
+    def __init__(self, payload: bytes):
+        self.payload = self
+        self._bytes = payload
+
+    def to_bytes(self) -> bytes:
+        return self._bytes
+
+
+def test_a_forecast_for_every_period_however_many_buoy_records_a_step_finds(forecast):
+    """A mission at full speed sends buoy records faster than the service's poll: each record is taken
+    on its own and followed by the forecast it makes due, as in a real-time run (one a period)."""
+    from types import SimpleNamespace
+
+    from bridge.buoy_codec import BuoyRecord, encode_buoy
+    from bridge.forecast_service import ForecastService
+
+    buoy, pub = _Queue(), _Queue()
+    session = SimpleNamespace(liveliness=lambda: SimpleNamespace(declare_token=lambda key: _Queue()),
+                              declare_publisher=lambda key: pub, declare_queryable=lambda key, handler: _Queue(),
+                              declare_subscriber=lambda key, handler: buoy)
+    svc = ForecastService(session, "moray", "oracle", oracle=forecast, rate_hz=2.0, horizon_s=10.0)
+    dt = 0.25
+    for i in range(6):                          # six 0.5 s records, all queued before one step
+        eta = np.full(2, 0.1 * i)
+        buoy.items.append(_Sample(encode_buoy(BuoyRecord(-200.0, dt, 0.5 * i, eta, i + 1))))
+    assert svc.step() is True and svc.step() is False
+    assert svc.counters["buoy_records"] == 6 and svc.counters["published"] == 6
+    assert [decode_forecast(p).valid_until for p in pub.items] == [0.25 + 0.5 * i + 10.0 for i in range(6)]
