@@ -86,6 +86,25 @@ def skill_weighted_flow(flow: BodyFlow, weight: np.ndarray) -> BodyFlow:
                     wx * flow.ax, wz * az_mean[:, None] + wm * (flow.az - az_mean[:, None]))
 
 
+def _own_damping(p: VehicleParams, u: float, w: float, q: float) -> np.ndarray:
+    """D(ν) ν (N, N, N m): the vehicle's own still-water damping at body velocity ν = [u, w, q]."""
+    return np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
+                     (p.M_q + p.M_qq * abs(q)) * q])
+
+
+def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.ndarray, eta: np.ndarray,
+                   tau_thr: np.ndarray) -> np.ndarray:
+    """The load a motion reveals, in the robust law's terms: paper Eq. 2 solved for F_h, plus D(ν) ν,
+
+    d = M ν̇ + C_RB(ν) ν + g(η) − τ_thr + D(ν) ν   (N, N, N m; body frame).
+    """
+    u, w, q = nu
+    m = p.M_RB
+    p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
+    c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
+    return p.M @ nu_dot + c_rb + restoring_forces(p, eta[:3]) - tau_thr + _own_damping(p, u, w, q)
+
+
 def _lowpass(prev: np.ndarray | None, new: np.ndarray, h: float, tc: float) -> np.ndarray:
     """One step of a first-order low-pass filter (time constant tc s, step h s); tc = 0 passes through."""
     if prev is None or tc <= 0.0:
@@ -138,9 +157,7 @@ class WaveFeedForward:
         if mode == 2:
             return with_flow - hydrodynamic_load_at(p, u, w, q, None)
         # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
-        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                            (p.M_q + p.M_qq * abs(q)) * q])
-        return with_flow + damping
+        return with_flow + _own_damping(p, u, w, q)
 
     @staticmethod
     def _bounded(nu: np.ndarray, flow: BodyFlow) -> np.ndarray:
@@ -167,14 +184,8 @@ class WaveFeedForward:
         if self._prev_nu is None:
             self._prev_nu = nu_now.copy()
             return None
-        p = self.vehicle
         u, w, q = 0.5 * (nu_now + self._prev_nu)
-        m = p.M_RB
-        p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
-        c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
-        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                            (p.M_q + p.M_qq * abs(q)) * q])
-        d = p.M @ ((nu_now - self._prev_nu) / self.h) + c_rb + restoring_forces(p, x_hat[:3]) - tau_thr + damping
+        d = _revealed_load(self.vehicle, (u, w, q), (nu_now - self._prev_nu) / self.h, x_hat, tau_thr)
         self._prev_nu = nu_now.copy()
         return d
 
@@ -200,16 +211,9 @@ class WaveFeedForward:
         p = self.vehicle
         u, w = float(uw[0]), float(uw[1])
         th, g = float(frame.pitch), p.g
-        nu = np.array([u, w, q])
         nu_dot = np.array([frame.acc_x - q * w - g * math.sin(th), frame.acc_z + q * u + g * math.cos(th),
                            (q - prev) / self.h])
-        m = p.M_RB
-        p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
-        c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
-        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                            (p.M_q + p.M_qq * abs(q)) * q])
-        observed = p.M @ nu_dot + c_rb + restoring_forces(p, x_hat[:3]) - tau_thr + damping
-        return observed, self._load(nu, flow, 0, 1)
+        return _revealed_load(p, (u, w, q), nu_dot, x_hat, tau_thr), self._load(np.array([u, w, q]), flow, 0, 1)
 
     # ------------------------------------------------------------------ the tick
     def update(self, flow: BodyFlow | None, x_hat: np.ndarray, tau_thr: np.ndarray | None = None,
