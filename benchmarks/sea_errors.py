@@ -43,9 +43,7 @@ ROWS: tuple[tuple[str, str, str, str], ...] = (
     ("ff_drag_m20", "drag −20 %", "model", "D −20%"),
     ("ff_current03", "0.3 m/s current", "model", "current"),
     ("ff_bar30", "Bar30 dynamic pressure, corrected (WK_BARO_WAVE 1)", "depth", "corrected"),
-    ("ff_bar30_raw", "Bar30 dynamic pressure, uncorrected", "depth", "uncorrected"),
-    ("ff_bar30_raw_aside", "Bar30 dynamic pressure, uncorrected, set aside (WK_FF_TRUST_TC 5 s)", "depth",
-     "set aside"),
+    ("ff_bar30_raw", "Bar30 dynamic pressure, uncorrected (faded by the skill)", "depth", "uncorrected"),
 )
 
 

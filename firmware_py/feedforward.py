@@ -35,15 +35,17 @@ without feed-forward.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, hydrodynamic_load_at, restoring_forces
 
+from .inertial_velocity import InertialVelocity
 from .params import ParameterTable
+from .sensors import SensorFrame
 
-__all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward"]
+__all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward", "skill_weighted_flow"]
 
 FF_MODES = {0: "paper", 1: "robust", 2: "wave part at the estimated velocity"}
 """``WK_FF_MODE`` values and their names."""
@@ -56,13 +58,51 @@ class FeedForwardOutput:
     ``tau_e_hat`` is the predicted load, ``tau_ff`` the wrench handed to the
     controller (before its ``WK_FF_GAIN``; None when inactive), ``active``
     whether there is one, ``weight`` the monitor's per-axis weight (ones
-    unless the robust law faded an axis).
+    unless the robust law faded an axis), ``skill`` the forecast's skill per
+    axis (:meth:`WaveFeedForward._update_skill`; ones until measured).
     """
 
     tau_e_hat: np.ndarray
     tau_ff: np.ndarray | None
     active: bool
     weight: np.ndarray
+    skill: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+
+def skill_weighted_flow(flow: BodyFlow, weight: np.ndarray) -> BodyFlow:
+    """The forecast's flow at the strips as far as each axis has shown skill, weights [X, Z, M] in [0, 1].
+
+    The surge kinematics (u, a_x) are scaled by w_X; the heave kinematics' mean over the body by w_Z and
+    their variation along it, which makes the strips' pitch moment, by w_M. Weights of one return the flow
+    itself; zeros, still water. For the estimator's prediction: where a forecast has no skill its loads
+    are noise the filter would believe, so it predicts there as without a forecast.
+    """
+    if bool((weight >= 1.0).all()):
+        return flow
+    wx, wz, wm = (float(v) for v in weight)
+    w_mean = flow.w @ flow.wts
+    az_mean = flow.az @ flow.wts
+    return BodyFlow(flow.xs, flow.wts, wx * flow.u, wz * w_mean[:, None] + wm * (flow.w - w_mean[:, None]),
+                    wx * flow.ax, wz * az_mean[:, None] + wm * (flow.az - az_mean[:, None]))
+
+
+def _own_damping(p: VehicleParams, u: float, w: float, q: float) -> np.ndarray:
+    """D(ν) ν (N, N, N m): the vehicle's own still-water damping at body velocity ν = [u, w, q]."""
+    return np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
+                     (p.M_q + p.M_qq * abs(q)) * q])
+
+
+def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.ndarray, eta: np.ndarray,
+                   tau_thr: np.ndarray) -> np.ndarray:
+    """The load a motion reveals, in the robust law's terms: paper Eq. 2 solved for F_h, plus D(ν) ν,
+
+    d = M ν̇ + C_RB(ν) ν + g(η) − τ_thr + D(ν) ν   (N, N, N m; body frame).
+    """
+    u, w, q = nu
+    m = p.M_RB
+    p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
+    c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
+    return p.M @ nu_dot + c_rb + restoring_forces(p, eta[:3]) - tau_thr + _own_damping(p, u, w, q)
 
 
 def _lowpass(prev: np.ndarray | None, new: np.ndarray, h: float, tc: float) -> np.ndarray:
@@ -89,6 +129,8 @@ class WaveFeedForward:
         self.distrusted = False         # the forecast is set aside: FF, preview and the EKF's wave model off
         self.set_aside = 0              # times the forecast was set aside (kept across resets)
         self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
+        self._uw: np.ndarray | None = None
+        self._inertial = InertialVelocity(h, params["WK_FF_SKILL_VTC"], vehicle.g)   # the skill's velocity
         self.reset()
 
     def reset(self) -> None:
@@ -97,7 +139,14 @@ class WaveFeedForward:
         self._prev_nu: np.ndarray | None = None
         self._obs_f: np.ndarray | None = None
         self._pred_f: np.ndarray | None = None
+        self._skill_obs_f: np.ndarray | None = None    # the skill's loads, low-passed
+        self._skill_pred_f: np.ndarray | None = None
+        self._prev_gyro: float | None = None
         self.weight = np.ones(3)
+        self.skill = np.ones(3)
+        self.skill_weight = np.ones(3)    # per axis, from the skill (WK_FF_SKILL_LO/HI)
+        self._moments = np.zeros((5, 3))   # windowed means of o, p and (co)variances oo, pp, op of the loads
+        self._skill_age = 0.0              # s of loads in the window
 
     # ------------------------------------------------------------------ models
     def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
@@ -108,9 +157,7 @@ class WaveFeedForward:
         if mode == 2:
             return with_flow - hydrodynamic_load_at(p, u, w, q, None)
         # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
-        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                            (p.M_q + p.M_qq * abs(q)) * q])
-        return with_flow + damping
+        return with_flow + _own_damping(p, u, w, q)
 
     @staticmethod
     def _bounded(nu: np.ndarray, flow: BodyFlow) -> np.ndarray:
@@ -137,25 +184,49 @@ class WaveFeedForward:
         if self._prev_nu is None:
             self._prev_nu = nu_now.copy()
             return None
-        p = self.vehicle
         u, w, q = 0.5 * (nu_now + self._prev_nu)
-        m = p.M_RB
-        p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
-        c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
-        damping = np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                            (p.M_q + p.M_qq * abs(q)) * q])
-        d = p.M @ ((nu_now - self._prev_nu) / self.h) + c_rb + restoring_forces(p, x_hat[:3]) - tau_thr + damping
+        d = _revealed_load(self.vehicle, (u, w, q), (nu_now - self._prev_nu) / self.h, x_hat, tau_thr)
         self._prev_nu = nu_now.copy()
         return d
 
+    def _skill_loads(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray,
+                     frame: SensorFrame | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """The observed and the predicted load for the skill, in the terms of :meth:`_load` (mode 1).
+
+        As :meth:`_observed_load` and the monitor's prediction, but at a velocity the forecast has not
+        touched: ν = [u, w] of :class:`~firmware_py.inertial_velocity.InertialVelocity` (IMU and fixes) and
+        the gyro's q, with ν̇ from the accelerometer, u̇ = f_x − q w − g sin θ, ẇ = f_z + q u + g cos θ
+        (:func:`~firmware_py.sensors.specific_force` inverted), and q̇ from consecutive gyro rates. The
+        estimator predicts with the forecast, so its ν̂ follows a wrong forecast as well as a right one, and
+        loads computed from it agree with any forecast. None without an IMU this tick.
+        """
+        uw = self._uw
+        if uw is None or frame is None or not math.isfinite(frame.pitch_rate):
+            self._prev_gyro = None
+            return None
+        q = float(frame.pitch_rate)
+        prev, self._prev_gyro = self._prev_gyro, q
+        if prev is None:
+            return None
+        p = self.vehicle
+        u, w = float(uw[0]), float(uw[1])
+        th, g = float(frame.pitch), p.g
+        nu_dot = np.array([frame.acc_x - q * w - g * math.sin(th), frame.acc_z + q * u + g * math.cos(th),
+                           (q - prev) / self.h])
+        return _revealed_load(p, (u, w, q), nu_dot, x_hat, tau_thr), self._load(np.array([u, w, q]), flow, 0, 1)
+
     # ------------------------------------------------------------------ the tick
-    def update(self, flow: BodyFlow | None, x_hat: np.ndarray, tau_thr: np.ndarray | None = None) -> FeedForwardOutput:
+    def update(self, flow: BodyFlow | None, x_hat: np.ndarray, tau_thr: np.ndarray | None = None,
+               frame: SensorFrame | None = None) -> FeedForwardOutput:
         """The feed-forward for this tick from ``flow`` (stages t, t + h/2, t + h) at the estimate x̂.
 
         ``flow`` None (no forecast, or FF not wanted this tick) gives an inactive output and
         resets the robust law's state. ``tau_thr`` is the mean thruster wrench over the last
-        period (for the monitor; None skips it this tick).
+        period (for the monitor; None skips it this tick), ``frame`` this tick's sensors (for the skill;
+        None, or no accelerometer: the skill is not updated).
         """
+        # the skill's velocity filter runs whether or not FF is on, so it is settled when FF starts
+        self._uw = None if frame is None else self._inertial.update(frame)
         if flow is None:
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
@@ -168,19 +239,21 @@ class WaveFeedForward:
             self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
             tau_e_hat = self._load(self._bounded(self._nu_f, flow) if mode == 1 else self._nu_f, flow, 2, mode)
             if mode == 1:
-                self._monitor(flow, x_hat, tau_thr)
+                self._monitor(flow, x_hat, tau_thr, frame)
         if not np.all(np.isfinite(tau_e_hat)):
             self.faults += 1
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
         tau_ff = -tau_e_hat
-        weight = self.weight if not self.distrusted else np.zeros(3)
+        self.skill_weight = self._skill_weight()
+        weight = self.weight * self.skill_weight if not self.distrusted else np.zeros(3)
         if mode == 1:
             lim = np.array(self.params.axes("WK_FF_LIM")) * np.array(self.params.axes("WK_TAU_MAX"))
             tau_ff = weight * np.clip(tau_ff, -lim, lim)
-        return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy())
+        return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy(), self.skill.copy())
 
-    def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None) -> None:
+    def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None,
+                 frame: SensorFrame | None = None) -> None:
         """Compare the predicted with the observed load over the last period; fade or restore the weights."""
         p = self.params
         thr = p["WK_FF_MON_THR"]
@@ -195,6 +268,12 @@ class WaveFeedForward:
         tc = p["WK_FF_MON_TC"]
         self._obs_f = _lowpass(self._obs_f, observed, self.h, tc)
         self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)
+        if p["WK_FF_SKILL_TC"] > 0.0:
+            loads = self._skill_loads(flow, x_hat, np.asarray(tau_thr, dtype=float), frame)
+            if loads is not None and np.all(np.isfinite(loads)):
+                self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], self.h, tc)
+                self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], self.h, tc)
+                self._update_skill(self._skill_obs_f, self._skill_pred_f)
         tau_max = np.array(p.axes("WK_TAU_MAX"))
         disagreement = np.abs(self._obs_f - self._pred_f) / tau_max
         w_min = p["WK_FF_W_MIN"]
@@ -203,6 +282,43 @@ class WaveFeedForward:
         rate = np.where(target < self.weight, 1.0 - math.exp(-self.h / 0.1), 1.0 - math.exp(-self.h / tc))
         self.weight = self.weight + rate * (target - self.weight)
         self._update_trust()
+
+    def _update_skill(self, observed: np.ndarray, predicted: np.ndarray) -> None:
+        """The forecast's skill per axis: the correlation of the predicted with the observed load over an
+        exponential window of ``WK_FF_SKILL_TC`` s (both loads low-passed over ``WK_FF_MON_TC``).
+
+        A correlation, not a difference: it is blind to a steady offset (a current, a buoyancy error) and
+        to a scale error, which the feedback and the authority limits absorb, and it does not grow with the
+        sea as the monitor's disagreement does, so one threshold serves W1 to W3. The estimator's noise on
+        the observed load is uncorrelated with the forecast: it lowers the correlation, by the same factor
+        whatever the forecast. Ones until the window holds ``WK_FF_SKILL_TC`` s of loads.
+        """
+        tc = self.params["WK_FF_SKILL_TC"]
+        if tc <= 0.0:
+            return
+        m = self._moments
+        if self._skill_age == 0.0:      # the means start at the first loads, not at zero
+            m[0], m[1] = observed, predicted
+        a = 1.0 - math.exp(-self.h / tc)
+        d_o, d_p = observed - m[0], predicted - m[1]
+        m[0] += a * d_o
+        m[1] += a * d_p
+        # exponentially weighted (co)variances about the running means (West 1979): no E[x²] − E[x]²
+        # cancellation under a large steady load
+        m[2:] = (1.0 - a) * (m[2:] + a * np.stack([d_o * d_o, d_p * d_p, d_o * d_p]))
+        self._skill_age += self.h
+        if self._skill_age < tc:
+            return
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = m[4] / np.sqrt(m[2] * m[3])
+        self.skill = np.where(np.isfinite(r), np.clip(r, -1.0, 1.0), 1.0)
+
+    def _skill_weight(self) -> np.ndarray:
+        """Per axis: 0 at a skill of ``WK_FF_SKILL_LO`` or less, 1 at ``WK_FF_SKILL_HI`` or more, linear between."""
+        lo, hi = self.params["WK_FF_SKILL_LO"], self.params["WK_FF_SKILL_HI"]
+        if self.params["WK_FF_SKILL_TC"] <= 0.0 or hi <= lo:
+            return np.ones(3)
+        return np.clip((self.skill - lo) / (hi - lo), 0.0, 1.0)
 
     def _update_trust(self) -> None:
         """Set the forecast aside while the monitor has faded some axis for most of ``WK_FF_TRUST_TC``.

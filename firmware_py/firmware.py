@@ -19,19 +19,20 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from bridge.models.thrusters import NEUTRAL_PWM_US, T200Curve, ThrusterLayout
+from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
+from .aux_outputs import AuxOutputs
 from .control import ControlOutput, StationKeepingController
 from .depth_correction import DepthCorrection
 from .estimator import PlanarEKF
 from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
-from .feedforward import FeedForwardOutput, WaveFeedForward
+from .feedforward import FeedForwardOutput, WaveFeedForward, skill_weighted_flow
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
-from .params import RCIN_PASSTHROUGH, ParameterTable
+from .params import ParameterTable
 from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
@@ -59,13 +60,14 @@ class TickRecord:
     d_hat: np.ndarray = field(default_factory=lambda: np.zeros(3))      # EKF's disturbance estimate [X, Z, M]
     nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
     target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # saturation preview's [x, z, θ] (m, rad)
+    ff_skill: np.ndarray = field(default_factory=lambda: np.ones(3))    # forecast's skill per axis [X, Z, M]
 
 
 def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
             float(r.ff_active), *r.ff_weight, float(r.control.saturated), *r.sigma[3:6], *r.d_hat,
-            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2]]
+            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2], *r.ff_skill]
 
 
 @dataclass(frozen=True)
@@ -77,13 +79,6 @@ class Prediction:
     tau_stages: np.ndarray
     flow: BodyFlow | None
     t: float
-
-
-@dataclass
-class MotorTest:
-    motor: int                   # 0-based
-    pwm: int
-    until: float                 # vehicle time (s)
 
 
 class Firmware:
@@ -116,8 +111,7 @@ class Firmware:
         self.depth_correction = DepthCorrection(params)
         self._ff_faded = False
         self._ff_aside = False
-        self._passthrough_key: tuple[int, int] | None = None
-        self._passthrough_map: tuple[tuple[int, int], ...] = ()
+        self.aux = AuxOutputs(params, layout.n)     # RC pass-through and motor test
         self.on_tick = on_tick
         self.last: TickRecord | None = None
         self.mode = Mode.MANUAL
@@ -129,14 +123,13 @@ class Firmware:
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
         self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
-        self._motor_test: MotorTest | None = None
-        self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self._pending: Prediction | None = None
         self._in_flight: deque[Prediction] = deque()   # commands sent, not yet acting (WK_OUT_DELAY)
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
         self._now = 0.0
         self._depth_t = -math.inf        # vehicle time of the last depth reading
         self._ff_was_active = False
+        self._frame: SensorFrame | None = None    # this tick's sensors, for the FF skill
         self.loop_rate_hz = loop_rate_hz
         self.tasks = [Task("control", loop_rate_hz, self.control_task)]
         self.scheduler = Scheduler(hal.clock, loop_rate_hz, self.tasks)
@@ -229,7 +222,7 @@ class Firmware:
         if not arm:
             if self.armed:
                 self.armed = False
-                self._motor_test = None
+                self.aux.test = None
                 self.say(MAV_SEVERITY.INFO, "Disarmed")
             return MAV_RESULT.ACCEPTED, ""
         if self.armed:
@@ -263,42 +256,11 @@ class Firmware:
 
     def rc_override_aux(self, channel: int, pwm: int | None) -> None:
         """RC input ``channel`` (9–16) overridden to ``pwm`` µs, or released (None); stamped with the vehicle clock."""
-        if pwm is None:
-            self.rc_aux.pop(channel, None)
-        else:
-            self.rc_aux[channel] = (int(pwm), self._now)
-
-    def _passthrough(self, t: float) -> dict[int, int]:
-        """Outputs whose SERVOn_FUNCTION is RCIN9–16 (ArduSub's pass-through): output index → µs.
-
-        A released or expired (``RC_OVERRIDE_TIME``) input gives neutral.
-        """
-        out: dict[int, int] = {}
-        expiry = self.params["RC_OVERRIDE_TIME"]
-        for i, function in self._passthrough_functions():
-            pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
-            fresh = expiry < 0 or t - since <= expiry
-            out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US
-        return out
-
-    def _passthrough_functions(self) -> tuple[tuple[int, int], ...]:
-        """(output index, SERVOn_FUNCTION) of the outputs set to RCIN9–16, read from the parameter table
-        again only when it has changed (its ``version``): the control task asks every tick."""
-        key = (id(self.params), self.params.version)
-        if key != self._passthrough_key:
-            functions = (int(self.params[f"SERVO{i + 1}_FUNCTION"]) for i in range(self.mixer.layout.n))
-            self._passthrough_map = tuple((i, f) for i, f in enumerate(functions) if f in RCIN_PASSTHROUGH)
-            self._passthrough_key = key
-        return self._passthrough_map
+        self.aux.rc_override(channel, pwm, self._now)
 
     def motor_test(self, motor: int, pwm: int, timeout_s: float) -> MAV_RESULT:
-        """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it)."""
-        if not self.armed:
-            return MAV_RESULT.DENIED
-        if not 1 <= motor <= self.mixer.layout.n or not 1100 <= pwm <= 1900:
-            return MAV_RESULT.DENIED
-        self._motor_test = MotorTest(motor - 1, int(pwm), self._now + min(max(timeout_s, 0.0), 0.5))
-        return MAV_RESULT.ACCEPTED
+        """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s: the GCS re-sends it); armed only."""
+        return self.aux.start_test(motor, pwm, timeout_s, self._now, self.armed)
 
     def gcs_heartbeat(self) -> None:
         """The GCS (sysid SYSID_MYGCS) was heard."""
@@ -377,6 +339,7 @@ class Firmware:
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
         frame = self.depth_correction.apply(frame, self.forecast, self.ekf, t)   # WK_BARO_WAVE
+        self._frame = frame
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
@@ -389,6 +352,8 @@ class Firmware:
         trusted = not self.feedforward.distrusted
         if ff_flow is None or not trusted:   # a forecast that cannot be evaluated, or that the monitor has
             flow = None                      # set aside, is no forecast for the estimator either
+        elif flow is not None:
+            flow = skill_weighted_flow(flow, self.feedforward.skill_weight)
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
         target = self.setpoint + self._preview_offset(ff_active, t, trusted)
@@ -397,7 +362,7 @@ class Firmware:
         self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total,
-                               target - self.setpoint)
+                               target - self.setpoint, ff.skill)
         if self.on_tick is not None:
             self.on_tick(self.last)
 
@@ -423,7 +388,7 @@ class Firmware:
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
-        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust())
+        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust(), self._frame)
         self._announce_fade(ff.weight)
         if ff_active and not ff.active:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
@@ -440,13 +405,10 @@ class Firmware:
         """The thruster outputs: neutral disarmed, a motor test, or the held axes' control + the pilot's."""
         if not self.armed:
             return self.mixer.neutral()
-        if self._motor_test is not None and t <= self._motor_test.until:
-            pwm = np.full(self.mixer.layout.n, NEUTRAL_PWM_US, dtype=np.int64)
-            pwm[self._motor_test.motor] = self._motor_test.pwm
-            return self.mixer.output(pwm)
-        self._motor_test = None
+        if (test := self.aux.test_pwm(t)) is not None:
+            return self.mixer.output(test)
         tau = np.where(self.flight_mode.holds, control.tau, self._pilot_wrench(t))
-        passthrough = self._passthrough(t)
+        passthrough = self.aux.passthrough(t)
         if passthrough:
             # Outputs set to RCIN9-16 take the companion's PWM; the motor model follows what is sent
             f_hat = self.mixer.f_hat

@@ -165,6 +165,13 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_FF_MON_TC", 0.05, 20.0, "s", "robust FF: monitor filter time constant and weight recovery time"),
     ParamDef("WK_FF_TRUST_TC", 0.0, 600.0, "s", "robust FF: averaging time of the monitor's smallest weight; "
              "below 0.5 the forecast is set aside (FF, preview, EKF wave model) until above 0.75; 0 never"),
+    ParamDef("WK_FF_SKILL_TC", 0.0, 600.0, "s", "robust FF: window of the forecast's skill (correlation of the "
+             "predicted with the observed load per axis); 0 not measured"),
+    ParamDef("WK_FF_SKILL_VTC", 0.2, 20.0, "s", "robust FF: time constant of the IMU/fix velocity filter the "
+             "skill uses (read at boot)"),
+    ParamDef("WK_FF_SKILL_LO", -1.0, 1.0, "", "robust FF: skill at or below which an axis' feed-forward is off"),
+    ParamDef("WK_FF_SKILL_HI", -1.0, 1.0, "", "robust FF: skill from which an axis' feed-forward is whole "
+             "(<= WK_FF_SKILL_LO: no skill fade)"),
     ParamDef("WK_FF_W_MIN", 0.0, 1.0, "", "robust FF: smallest weight the monitor fades an axis to"),
     ParamDef("WK_PRV_ENABLE", 0, 1, "", "robust FF: saturation preview (pre-position the target ahead of a "
              "forecast load beyond tau_max) on (1) or off (0)", ptype="INT8"),

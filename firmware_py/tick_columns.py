@@ -14,6 +14,6 @@ TICK_COLUMNS = (
     + [f"pwm{i}" for i in range(1, 9)]
     + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
     + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
-    + ["nis", "nis_dof", "prv_x", "prv_z"]
+    + ["nis", "nis_dof", "prv_x", "prv_z", "ff_skill_X", "ff_skill_Z", "ff_skill_M"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""
