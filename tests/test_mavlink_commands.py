@@ -173,17 +173,18 @@ def test_position_target_only_in_guided(v, fast_heartbeat):
 
 def test_gcs_failsafe_disarms_after_silence(v, fast_heartbeat):
     gs = v.gs
-    assert gs.set_param("FS_GCS_TIMEOUT", 1.0).param_value == 1.0
+    # 2 s against the GCS's 1 Hz heartbeats: a 1 s timeout left no margin for a late beat on a loaded machine
+    assert gs.set_param("FS_GCS_TIMEOUT", 2.0).param_value == 2.0
     assert gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == 0
-    time.sleep(1.6)                                     # heartbeats keep it armed past the timeout
+    time.sleep(2.6)                                     # heartbeats keep it armed past the timeout
     assert v.fw.armed
     gs.heartbeats(False)
     gs.send(mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3))
     t0, since = time.monotonic(), gs.mark()                # the last heartbeat: now (not up to 1 s ago)
-    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe", timeout=6.0, since=since) is not None
+    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe", timeout=8.0, since=since) is not None
     hb = gs.heartbeat(lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, timeout=3.0)
     assert hb is not None and hb.system_status == mavlink.MAV_STATE_CRITICAL
-    assert 0.8 < time.monotonic() - t0 < 5.0
+    assert 1.8 < time.monotonic() - t0 < 7.0
     since = gs.mark()
     gs.heartbeats(True)
     assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe cleared", timeout=4.0, since=since) is not None
