@@ -129,7 +129,6 @@ class WaveFeedForward:
         self.distrusted = False         # the forecast is set aside: FF, preview and the EKF's wave model off
         self.set_aside = 0              # times the forecast was set aside (kept across resets)
         self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
-        self._uw: np.ndarray | None = None
         self._inertial = InertialVelocity(h, params["WK_FF_SKILL_VTC"], vehicle.g)   # the skill's velocity
         self.reset()
 
@@ -189,18 +188,17 @@ class WaveFeedForward:
         self._prev_nu = nu_now.copy()
         return d
 
-    def _skill_loads(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray,
-                     frame: SensorFrame | None) -> tuple[np.ndarray, np.ndarray] | None:
+    def _skill_loads(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray, frame: SensorFrame | None,
+                     uw: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
         """The observed and the predicted load for the skill, in the terms of :meth:`_load` (mode 1).
 
         As :meth:`_observed_load` and the monitor's prediction, but at a velocity the forecast has not
-        touched: ν = [u, w] of :class:`~firmware_py.inertial_velocity.InertialVelocity` (IMU and fixes) and
+        touched: ν = [u, w] = ``uw`` of :class:`~firmware_py.inertial_velocity.InertialVelocity` (IMU and fixes) and
         the gyro's q, with ν̇ from the accelerometer, u̇ = f_x − q w − g sin θ, ẇ = f_z + q u + g cos θ
         (:func:`~firmware_py.sensors.specific_force` inverted), and q̇ from consecutive gyro rates. The
         estimator predicts with the forecast, so its ν̂ follows a wrong forecast as well as a right one, and
         loads computed from it agree with any forecast. None without an IMU this tick.
         """
-        uw = self._uw
         if uw is None or frame is None or not math.isfinite(frame.pitch_rate):
             self._prev_gyro = None
             return None
@@ -225,12 +223,13 @@ class WaveFeedForward:
         period (for the monitor; None skips it this tick), ``frame`` this tick's sensors (for the skill;
         None, or no accelerometer: the skill is not updated).
         """
+        mode = int(self.params["WK_FF_MODE"])
         # the skill's velocity filter runs whether or not FF is on, so it is settled when FF starts
-        self._uw = None if frame is None else self._inertial.update(frame)
+        measure_skill = mode == 1 and self.params["WK_FF_SKILL_TC"] > 0.0 and frame is not None
+        uw = self._inertial.update(frame) if measure_skill and frame is not None else None
         if flow is None:
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
-        mode = int(self.params["WK_FF_MODE"])
         if mode == 0:
             # The paper's law: the vehicle holding station (ν = 0) at the end of the period
             tau_e_hat = hydrodynamic_load_at(self.vehicle, 0.0, 0.0, 0.0, flow, 2)
@@ -239,7 +238,7 @@ class WaveFeedForward:
             self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
             tau_e_hat = self._load(self._bounded(self._nu_f, flow) if mode == 1 else self._nu_f, flow, 2, mode)
             if mode == 1:
-                self._monitor(flow, x_hat, tau_thr, frame)
+                self._monitor(flow, x_hat, tau_thr, frame if measure_skill else None, uw)
         if not np.all(np.isfinite(tau_e_hat)):
             self.faults += 1
             self.reset()
@@ -253,7 +252,7 @@ class WaveFeedForward:
         return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy(), self.skill.copy())
 
     def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None,
-                 frame: SensorFrame | None = None) -> None:
+                 frame: SensorFrame | None = None, uw: np.ndarray | None = None) -> None:
         """Compare the predicted with the observed load over the last period; fade or restore the weights."""
         p = self.params
         thr = p["WK_FF_MON_THR"]
@@ -268,8 +267,8 @@ class WaveFeedForward:
         tc = p["WK_FF_MON_TC"]
         self._obs_f = _lowpass(self._obs_f, observed, self.h, tc)
         self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)
-        if p["WK_FF_SKILL_TC"] > 0.0:
-            loads = self._skill_loads(flow, x_hat, np.asarray(tau_thr, dtype=float), frame)
+        if frame is not None:       # the skill is wanted (WK_FF_SKILL_TC > 0)
+            loads = self._skill_loads(flow, x_hat, np.asarray(tau_thr, dtype=float), frame, uw)
             if loads is not None and np.all(np.isfinite(loads)):
                 self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], self.h, tc)
                 self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], self.h, tc)
@@ -294,8 +293,6 @@ class WaveFeedForward:
         whatever the forecast. Ones until the window holds ``WK_FF_SKILL_TC`` s of loads.
         """
         tc = self.params["WK_FF_SKILL_TC"]
-        if tc <= 0.0:
-            return
         m = self._moments
         if self._skill_age == 0.0:      # the means start at the first loads, not at zero
             m[0], m[1] = observed, predicted

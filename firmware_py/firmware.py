@@ -129,7 +129,6 @@ class Firmware:
         self._now = 0.0
         self._depth_t = -math.inf        # vehicle time of the last depth reading
         self._ff_was_active = False
-        self._frame: SensorFrame | None = None    # this tick's sensors, for the FF skill
         self.loop_rate_hz = loop_rate_hz
         self.tasks = [Task("control", loop_rate_hz, self.control_task)]
         self.scheduler = Scheduler(hal.clock, loop_rate_hz, self.tasks)
@@ -339,7 +338,6 @@ class Firmware:
         if self.depth_offset:
             frame = replace(frame, depth=frame.depth - self.depth_offset)
         frame = self.depth_correction.apply(frame, self.forecast, self.ekf, t)   # WK_BARO_WAVE
-        self._frame = frame
         self._estimate(frame, t)
         if not self.ekf.initialised or not self.sensors_healthy:
             # No estimate, or the vehicle's sensors (in SITL: the plant) went silent: neutral
@@ -348,7 +346,7 @@ class Firmware:
         delay = int(self.params["WK_OUT_DELAY"])
         flow, seq = self.predicted_flow(t)
         ahead_flow = flow if not delay else self.predicted_flow(t + delay * self.h)[0]
-        ff_active, ff_flow, ff = self._feedforward(ahead_flow)
+        ff_active, ff_flow, ff = self._feedforward(ahead_flow, frame)
         trusted = not self.feedforward.distrusted
         if ff_flow is None or not trusted:   # a forecast that cannot be evaluated, or that the monitor has
             flow = None                      # set aside, is no forecast for the estimator either
@@ -382,13 +380,15 @@ class Firmware:
         self._failsafe_action(self.ekf_failsafe.check(self.ekf, self.armed))
         self._failsafe_action(self.gcs_failsafe.check(t, self.armed))
 
-    def _feedforward(self, flow: BodyFlow | None) -> tuple[bool, BodyFlow | None, FeedForwardOutput]:
-        """The FF wrench: on when a forecast is in use, the vehicle is armed and the mode holds every axis."""
+    def _feedforward(self, flow: BodyFlow | None, frame: SensorFrame) -> tuple[bool, BodyFlow | None,
+                                                                                FeedForwardOutput]:
+        """The FF wrench: on when a forecast is in use, the vehicle is armed and the mode holds every axis
+        (``frame``, this tick's sensors, for the forecast's skill)."""
         ff_active = flow is not None and self.armed and all(self.flight_mode.holds)
         if ff_active != self._ff_was_active:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
-        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust(), self._frame)
+        ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust(), frame)
         self._announce_fade(ff.weight)
         if ff_active and not ff.active:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
