@@ -39,7 +39,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bridge.models.vehicle import BodyFlow, VehicleParams, hydrodynamic_load_at, restoring_forces
+from bridge.models.vehicle import (
+    BodyFlow,
+    VehicleParams,
+    hydrodynamic_load_at,
+    hydrodynamic_load_terms,
+    restoring_terms,
+)
 
 from .inertial_velocity import InertialVelocity
 from .params import ParameterTable
@@ -86,10 +92,9 @@ def skill_weighted_flow(flow: BodyFlow, weight: np.ndarray) -> BodyFlow:
                     wx * flow.ax, wz * az_mean[:, None] + wm * (flow.az - az_mean[:, None]))
 
 
-def _own_damping(p: VehicleParams, u: float, w: float, q: float) -> np.ndarray:
+def _own_damping(p: VehicleParams, u: float, w: float, q: float) -> tuple[float, float, float]:
     """D(ν) ν (N, N, N m): the vehicle's own still-water damping at body velocity ν = [u, w, q]."""
-    return np.array([(p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w,
-                     (p.M_q + p.M_qq * abs(q)) * q])
+    return (p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w, (p.M_q + p.M_qq * abs(q)) * q
 
 
 def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.ndarray, eta: np.ndarray,
@@ -97,12 +102,26 @@ def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.
     """The load a motion reveals, in the robust law's terms: paper Eq. 2 solved for F_h, plus D(ν) ν,
 
     d = M ν̇ + C_RB(ν) ν + g(η) − τ_thr + D(ν) ν   (N, N, N m; body frame).
+
+    Summed per axis in floats, term by term in that order (M ν̇ is numpy's product).
     """
     u, w, q = nu
     m = p.M_RB
     p_x, p_z = m[0, 0] * u + m[0, 2] * q, m[1, 1] * w + m[1, 2] * q
-    c_rb = np.array([p_z * q, -p_x * q, -p_z * u + p_x * w])
-    return p.M @ nu_dot + c_rb + restoring_forces(p, eta[:3]) - tau_thr + _own_damping(p, u, w, q)
+    c_rb = (p_z * q, -p_x * q, -p_z * u + p_x * w)
+    g = restoring_terms(p, eta[1], eta[2])
+    d = _own_damping(p, u, w, q)
+    m_nu_dot = (p.M @ nu_dot).tolist()
+    tau = tau_thr.tolist()
+    return np.array([m_nu_dot[i] + c_rb[i] + g[i] - tau[i] + d[i] for i in range(3)])
+
+
+def _correlation(cov: float, var_a: float, var_b: float) -> float:
+    """cov / √(var_a var_b) clipped to [−1, 1]; 1 where it is undefined (no variance yet)."""
+    prod = var_a * var_b
+    den = math.sqrt(prod) if prod >= 0.0 else math.nan
+    r = cov / den if den != 0.0 else math.nan
+    return min(max(r, -1.0), 1.0) if math.isfinite(r) else 1.0
 
 
 def _lowpass(prev: np.ndarray | None, new: np.ndarray, h: float, tc: float) -> np.ndarray:
@@ -130,6 +149,9 @@ class WaveFeedForward:
         self.set_aside = 0              # times the forecast was set aside (kept across resets)
         self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
         self._inertial = InertialVelocity(h, params["WK_FF_SKILL_VTC"], vehicle.g)   # the skill's velocity
+        self._axes_key: tuple[int, int] | None = None    # (table, version) the per-axis limits were read at
+        self._tau_max = np.ones(3)
+        self._ff_lim = np.ones(3)
         self.reset()
 
     def reset(self) -> None:
@@ -147,16 +169,27 @@ class WaveFeedForward:
         self._moments = np.zeros((5, 3))   # windowed means of o, p and (co)variances oo, pp, op of the loads
         self._skill_age = 0.0              # s of loads in the window
 
+    def _axis_limits(self) -> tuple[np.ndarray, np.ndarray]:
+        """τ_max and the FF's authority limit ``WK_FF_LIM_*``·τ_max (N, N, N m), read again only when a
+        parameter has changed."""
+        p = self.params
+        key = (id(p), p.version)
+        if key != self._axes_key:
+            self._tau_max = np.array(p.axes("WK_TAU_MAX"))
+            self._ff_lim = np.array(p.axes("WK_FF_LIM")) * self._tau_max
+            self._axes_key = key
+        return self._tau_max, self._ff_lim
+
     # ------------------------------------------------------------------ models
     def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
         """The predicted load (N, N, N m) at body velocity ν in ``flow`` at its instant i, per law ``mode``."""
-        u, w, q = (float(v) for v in nu)
+        u, w, q = nu.tolist()
         p = self.vehicle
-        with_flow = hydrodynamic_load_at(p, u, w, q, flow, i)
         if mode == 2:
-            return with_flow - hydrodynamic_load_at(p, u, w, q, None)
+            return hydrodynamic_load_at(p, u, w, q, flow, i) - hydrodynamic_load_at(p, u, w, q, None)
         # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
-        return with_flow + _own_damping(p, u, w, q)
+        f_h, d = hydrodynamic_load_terms(p, u, w, q, flow, i), _own_damping(p, u, w, q)
+        return np.array([f_h[0] + d[0], f_h[1] + d[1], f_h[2] + d[2]])
 
     @staticmethod
     def _bounded(nu: np.ndarray, flow: BodyFlow) -> np.ndarray:
@@ -239,7 +272,7 @@ class WaveFeedForward:
             tau_e_hat = self._load(self._bounded(self._nu_f, flow) if mode == 1 else self._nu_f, flow, 2, mode)
             if mode == 1:
                 self._monitor(flow, x_hat, tau_thr, frame if measure_skill else None, uw)
-        if not np.all(np.isfinite(tau_e_hat)):
+        if not np.isfinite(tau_e_hat).all():
             self.faults += 1
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
@@ -247,8 +280,8 @@ class WaveFeedForward:
         self.skill_weight = self._skill_weight()
         weight = self.weight * self.skill_weight if not self.distrusted else np.zeros(3)
         if mode == 1:
-            lim = np.array(self.params.axes("WK_FF_LIM")) * np.array(self.params.axes("WK_TAU_MAX"))
-            tau_ff = weight * np.clip(tau_ff, -lim, lim)
+            lim = self._axis_limits()[1]
+            tau_ff = weight * np.minimum(np.maximum(tau_ff, -lim), lim)
         return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy(), self.skill.copy())
 
     def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None,
@@ -260,7 +293,7 @@ class WaveFeedForward:
             self.weight = np.ones(3)
             return
         observed = self._observed_load(x_hat, np.asarray(tau_thr, dtype=float))
-        if observed is None or not np.all(np.isfinite(observed)):
+        if observed is None or not np.isfinite(observed).all():
             return
         # The prediction at the start of this period's end (stage 0 = now) and the estimate's velocity
         predicted = self._load(np.asarray(x_hat[3:], dtype=float), flow, 0, 1)
@@ -269,14 +302,13 @@ class WaveFeedForward:
         self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)
         if frame is not None:       # the skill is wanted (WK_FF_SKILL_TC > 0)
             loads = self._skill_loads(flow, x_hat, np.asarray(tau_thr, dtype=float), frame, uw)
-            if loads is not None and np.all(np.isfinite(loads)):
+            if loads is not None and np.isfinite(loads[0]).all() and np.isfinite(loads[1]).all():
                 self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], self.h, tc)
                 self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], self.h, tc)
                 self._update_skill(self._skill_obs_f, self._skill_pred_f)
-        tau_max = np.array(p.axes("WK_TAU_MAX"))
-        disagreement = np.abs(self._obs_f - self._pred_f) / tau_max
+        disagreement = np.abs(self._obs_f - self._pred_f) / self._axis_limits()[0]
         w_min = p["WK_FF_W_MIN"]
-        target = np.clip(1.0 - (disagreement - thr) / thr, w_min, 1.0)
+        target = np.minimum(np.maximum(1.0 - (disagreement - thr) / thr, w_min), 1.0)
         # Fade within a few ticks, recover over WK_FF_MON_TC
         rate = np.where(target < self.weight, 1.0 - math.exp(-self.h / 0.1), 1.0 - math.exp(-self.h / tc))
         self.weight = self.weight + rate * (target - self.weight)
@@ -293,29 +325,33 @@ class WaveFeedForward:
         whatever the forecast. Ones until the window holds ``WK_FF_SKILL_TC`` s of loads.
         """
         tc = self.params["WK_FF_SKILL_TC"]
-        m = self._moments
         if self._skill_age == 0.0:      # the means start at the first loads, not at zero
-            m[0], m[1] = observed, predicted
+            self._moments[0], self._moments[1] = observed, predicted
         a = 1.0 - math.exp(-self.h / tc)
-        d_o, d_p = observed - m[0], predicted - m[1]
-        m[0] += a * d_o
-        m[1] += a * d_p
-        # exponentially weighted (co)variances about the running means (West 1979): no E[x²] − E[x]²
-        # cancellation under a large steady load
-        m[2:] = (1.0 - a) * (m[2:] + a * np.stack([d_o * d_o, d_p * d_p, d_o * d_p]))
+        b = 1.0 - a
+        mo, mp, voo, vpp, vop = self._moments.tolist()     # per axis in floats: three short sums each
+        obs, pred = observed.tolist(), predicted.tolist()
+        for k in range(3):
+            d_o, d_p = obs[k] - mo[k], pred[k] - mp[k]
+            mo[k] += a * d_o
+            mp[k] += a * d_p
+            # exponentially weighted (co)variances about the running means (West 1979): no E[x²] − E[x]²
+            # cancellation under a large steady load
+            voo[k] = b * (voo[k] + a * (d_o * d_o))
+            vpp[k] = b * (vpp[k] + a * (d_p * d_p))
+            vop[k] = b * (vop[k] + a * (d_o * d_p))
+        self._moments[:] = (mo, mp, voo, vpp, vop)
         self._skill_age += self.h
         if self._skill_age < tc:
             return
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = m[4] / np.sqrt(m[2] * m[3])
-        self.skill = np.where(np.isfinite(r), np.clip(r, -1.0, 1.0), 1.0)
+        self.skill = np.array([_correlation(vop[k], voo[k], vpp[k]) for k in range(3)])
 
     def _skill_weight(self) -> np.ndarray:
         """Per axis: 0 at a skill of ``WK_FF_SKILL_LO`` or less, 1 at ``WK_FF_SKILL_HI`` or more, linear between."""
         lo, hi = self.params["WK_FF_SKILL_LO"], self.params["WK_FF_SKILL_HI"]
         if self.params["WK_FF_SKILL_TC"] <= 0.0 or hi <= lo:
             return np.ones(3)
-        return np.clip((self.skill - lo) / (hi - lo), 0.0, 1.0)
+        return np.minimum(np.maximum((self.skill - lo) / (hi - lo), 0.0), 1.0)
 
     def _update_trust(self) -> None:
         """Set the forecast aside while the monitor has faded some axis for most of ``WK_FF_TRUST_TC``.

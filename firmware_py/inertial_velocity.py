@@ -29,7 +29,9 @@ __all__ = ["InertialVelocity"]
 class InertialVelocity:
     """x and z (NED, m), their rates (m/s) and the accelerometer biases (m/s²), from IMU and fixes.
 
-    ``h`` is the tick (s), ``tc`` the filter's time constant (s), ``g`` gravity (m/s²).
+    ``h`` is the tick (s), ``tc`` the filter's time constant (s), ``g`` gravity (m/s²). The two axes
+    are kept as plain floats: a tick is a dozen scalar operations per axis, which cost less as Python
+    floats than as two-element arrays (the arithmetic, and so the bits, are the same).
     """
 
     def __init__(self, h: float, tc: float, g: float):
@@ -38,44 +40,59 @@ class InertialVelocity:
 
     def reset(self) -> None:
         """Forget the state: the next frames with both fixes start it again."""
-        self.pos = np.full(2, math.nan)      # [x, z] NED (m)
-        self.vel = np.zeros(2)               # [ẋ, ż] (m/s)
-        self.bias = np.zeros(2)              # NED acceleration bias (m/s²)
-        self._since_fix = np.zeros(2)        # s since each axis' last fix
-        self._acc: np.ndarray | None = None  # the last tick's NED acceleration (m/s²)
+        self._pos = [math.nan, math.nan]      # [x, z] NED (m)
+        self._vel = [0.0, 0.0]                # [ẋ, ż] (m/s)
+        self._bias = [0.0, 0.0]               # NED acceleration bias (m/s²)
+        self._since_fix = [0.0, 0.0]          # s since each axis' last fix
+        self._acc: tuple[float, float] | None = None   # the last tick's NED acceleration (m/s²)
+
+    @property
+    def pos(self) -> np.ndarray:
+        """[x, z] NED (m)."""
+        return np.array(self._pos)
+
+    @property
+    def vel(self) -> np.ndarray:
+        """[ẋ, ż] NED (m/s)."""
+        return np.array(self._vel)
+
+    @property
+    def bias(self) -> np.ndarray:
+        """The accelerometer's bias in NED [x, z] (m/s²)."""
+        return np.array(self._bias)
 
     @property
     def ready(self) -> bool:
-        return bool(np.all(np.isfinite(self.pos)))
+        return math.isfinite(self._pos[0]) and math.isfinite(self._pos[1])
 
     def update(self, frame: SensorFrame) -> np.ndarray | None:
         """Propagate one tick with this frame's IMU, correct with its fixes; body [u, w] (m/s) or None."""
-        fix = np.array([frame.x, frame.depth])
-        imu = (frame.acc_x, frame.acc_z, frame.pitch)
-        if not all(math.isfinite(v) for v in imu):
+        fix = (float(frame.x), float(frame.depth))
+        f_x, f_z, th = float(frame.acc_x), float(frame.acc_z), float(frame.pitch)
+        if not (math.isfinite(f_x) and math.isfinite(f_z) and math.isfinite(th)):
             self.reset()
             return None
-        f_x, f_z, th = imu
         c, s = math.cos(th), math.sin(th)
+        pos, vel, bias, since = self._pos, self._vel, self._bias, self._since_fix
         if not self.ready:
-            self.pos = np.where(np.isfinite(fix), fix, self.pos)
+            self._pos = [f if math.isfinite(f) else x for f, x in zip(fix, pos, strict=True)]
             return None
-        acc = np.array([c * f_x + s * f_z, -s * f_x + c * f_z + self.g]) - self.bias
+        acc = (c * f_x + s * f_z - bias[0], -s * f_x + c * f_z + self.g - bias[1])
         prev = acc if self._acc is None else self._acc
         self._acc = acc
         h = self.h
-        # the acceleration taken linear over the tick (trapezoid): the readings are samples, not means
-        self.pos += self.vel * h + (2.0 * prev + acc) * (h * h / 6.0)
-        self.vel += 0.5 * (prev + acc) * h
-        self._since_fix += h
         w = 1.0 / self.tc
         for i in (0, 1):
+            # the acceleration taken linear over the tick (trapezoid): the readings are samples, not means
+            pos[i] += vel[i] * h + (2.0 * prev[i] + acc[i]) * (h * h / 6.0)
+            vel[i] += 0.5 * (prev[i] + acc[i]) * h
+            since[i] += h
             if math.isfinite(fix[i]):
-                dt = self._since_fix[i]
-                e = fix[i] - self.pos[i]
-                self.pos[i] += min(1.0, 3.0 * w * dt) * e
-                self.vel[i] += 3.0 * w * w * dt * e
-                self.bias[i] -= w ** 3 * dt * e
-                self._since_fix[i] = 0.0
+                dt = since[i]
+                e = fix[i] - pos[i]
+                pos[i] += min(1.0, 3.0 * w * dt) * e
+                vel[i] += 3.0 * w * w * dt * e
+                bias[i] -= w ** 3 * dt * e
+                since[i] = 0.0
         # NED rates → body: u = cos θ ẋ − sin θ ż, w = sin θ ẋ + cos θ ż
-        return np.array([c * self.vel[0] - s * self.vel[1], s * self.vel[0] + c * self.vel[1]])
+        return np.array([c * vel[0] - s * vel[1], s * vel[0] + c * vel[1]])

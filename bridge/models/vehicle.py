@@ -177,13 +177,16 @@ def restoring_forces(p: VehicleParams, eta: np.ndarray) -> np.ndarray:
     Buoyancy is scaled by :func:`submerged_fraction` so a vehicle that reaches
     the surface floats there instead of flying out of the water.
     """
-    s, c = math.sin(eta[2]), math.cos(eta[2])
-    W, B = p.W, p.B * submerged_fraction(p, eta[1])
-    return np.array([
-        (W - B) * s,
-        -(W - B) * c,
-        (p.r_G[2] * W - p.r_B[2] * B) * s + (p.r_G[0] * W - p.r_B[0] * B) * c,
-    ])
+    return np.array(restoring_terms(p, eta[1], eta[2]))
+
+
+def restoring_terms(p: VehicleParams, z: float, theta: float) -> tuple[float, float, float]:
+    """:func:`restoring_forces` at depth z (m) and pitch θ (rad), as three floats (the per-tick scalar path)."""
+    s, c = math.sin(theta), math.cos(theta)
+    W, B = p.W, p.B * submerged_fraction(p, z)
+    return ((W - B) * s,
+            -(W - B) * c,
+            (p.r_G[2] * W - p.r_B[2] * B) * s + (p.r_G[0] * W - p.r_B[0] * B) * c)
 
 
 @dataclass(frozen=True)
@@ -300,9 +303,15 @@ def hydrodynamic_load_at(p: VehicleParams, u: float, w: float, q: float, flow: B
 
     The compiled kernel when :data:`~bridge.models.kernels.ENABLED`, else the reference.
     """
+    return np.array(hydrodynamic_load_terms(p, u, w, q, flow, i))
+
+
+def hydrodynamic_load_terms(p: VehicleParams, u: float, w: float, q: float, flow: BodyFlow | None = None,
+                            i: int = 0) -> tuple[float, float, float]:
+    """:func:`hydrodynamic_load_at` as three floats (X, Z, M), for callers that go on in scalars."""
     if not kernels.ENABLED:
-        return np.array(hydrodynamic_load(p, u, w, q, None if flow is None else flow.stage(i)))
-    return np.array(kernels.hydro_load(p.kernel_params, float(u), float(w), float(q), *_flow_args(flow, i)))
+        return hydrodynamic_load(p, u, w, q, None if flow is None else flow.stage(i))
+    return kernels.hydro_load(p.kernel_params, float(u), float(w), float(q), *_flow_args(flow, i))
 
 
 _NO_FLOW = (np.zeros(1), np.ones(1), np.zeros((3, 1)))
