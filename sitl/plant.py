@@ -24,7 +24,7 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
-    hydrodynamic_load_at,
+    hydrodynamic_load_terms,
     motor_lag_stages,
     rk4_step,
     state_rates_at,
@@ -121,7 +121,7 @@ class Plant:
         pwm = np.asarray(pwm, dtype=float)
         if pwm.shape != (8,):
             raise ValueError(f"expected 8 PWM values, got shape {pwm.shape}")
-        if not np.all(np.isfinite(pwm)):
+        if not np.isfinite(pwm).all():
             raise ValueError("PWM values must be finite")
         if not dt > 0:
             raise ValueError(f"dt must be positive, got {dt}")
@@ -141,7 +141,8 @@ class Plant:
         self.state = PlantState(t, x[:3], x[3:], f)
         self.tau = self.B @ f
         u, w, q = x[3:].tolist()
-        self.tau_E = hydrodynamic_load_at(p, u, w, q, flow, 2) - hydrodynamic_load_at(p, u, w, q, None)
+        in_flow, still = hydrodynamic_load_terms(p, u, w, q, flow, 2), hydrodynamic_load_terms(p, u, w, q, None)
+        self.tau_E = np.array([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
         self.nu_dot = state_rates_at(p, x, self.tau, flow, 2)[3:]
         self._update_pressure()
         return self.state
