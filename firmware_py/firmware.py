@@ -369,7 +369,8 @@ class Firmware:
         if math.isfinite(frame.depth):
             self._depth_t = t
         # depth may come slower than the loop (SIM_DEPTH_RATE): healthy while it is under 0.5 s old
-        healthy = bool(frame.healthy and np.isfinite(frame.as_vector()[2:]).all() and t - self._depth_t <= 0.5)
+        healthy = bool(frame.healthy and math.isfinite(frame.pitch) and math.isfinite(frame.pitch_rate)
+                       and t - self._depth_t <= 0.5)
         if healthy != self.sensors_healthy and self.ekf.initialised:
             self.say(MAV_SEVERITY.INFO if healthy else MAV_SEVERITY.CRITICAL,
                      "Sensors back" if healthy else "Sensors lost: thrusters neutral")
@@ -407,7 +408,8 @@ class Firmware:
             return self.mixer.neutral()
         if (test := self.aux.test_pwm(t)) is not None:
             return self.mixer.output(test)
-        tau = np.where(self.flight_mode.holds, control.tau, self._pilot_wrench(t))
+        holds = self.flight_mode.holds
+        tau = control.tau.copy() if all(holds) else np.where(holds, control.tau, self._pilot_wrench(t))
         passthrough = self.aux.passthrough(t)
         if passthrough:
             # Outputs set to RCIN9-16 take the companion's PWM; the motor model follows what is sent
@@ -418,7 +420,7 @@ class Firmware:
             for i, v in passthrough.items():
                 pwm[i] = v
             return self.mixer.output(pwm)
-        if np.all(np.isfinite(tau)):
+        if np.isfinite(tau).all():
             return self.mixer.mix(tau)
         # never send a non-finite command to the thrusters
         self.output_faults += 1
