@@ -33,6 +33,7 @@ uncertainty), because a surge disturbance the random walk lags behind would othe
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse (same bits)
@@ -52,9 +53,39 @@ CHANNELS = ("position", "depth", "pitch", "pitch_rate", "dvl_u", "dvl_w", "accel
 """Measurement channels; the paper's mode uses the first four."""
 
 _ACCEL = slice(6, 8)
+_ACCEL_CHANNELS = (6, 7)
 _QI_CHANNELS = (6, 7, 3, 2)
 """The channel whose innovations scale each adapted noise: the disturbance's X (f_x), Z (f_z), M (pitch rate)
 and the pitch's random walk (pitch)."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Tuning:
+    """The parameters :meth:`PlanarEKF.update` reads every tick, read once per parameter-table version
+    (dictionary look-ups cost more than the arithmetic they feed)."""
+
+    r: tuple[float, ...]      # R's diagonal, per channel (m², rad², (rad/s)², (m/s)², (m/s²)²)
+    r_vec: np.ndarray         # the same as a read-only array
+    gate2: float              # WK_EKF_GATE² (NIS gate, σ²)
+    rst_t: float              # WK_EKF_RST_T (s)
+    acc_th: bool              # WK_EKF_ACC_TH: the accelerometer may correct θ
+    qi_adpt: bool             # WK_EKF_QI_ADPT
+    qd_tc: float              # WK_EKF_QD_TC (s)
+    qi_tc: float              # WK_EKF_QI_TC (s)
+    qi_tc_th: float           # WK_EKF_QI_TC_TH (s)
+    qi_blk: float             # WK_EKF_QI_BLK (ticks)
+    qi_max: float             # WK_EKF_QI_MAX
+
+
+@dataclass(frozen=True, slots=True)
+class _Subset:
+    """The fusion's constant inputs for one set of accepted channels (read-only arrays: they are handed to
+    the filterpy object, kf.R, and shared between ticks)."""
+
+    rows: np.ndarray          # the accepted channels' indices, ascending
+    H: np.ndarray | None      # their rows of H (k, n) when H is constant (no accelerometer row), else None
+    R: np.ndarray             # diag of their noise variances (k, k)
+    blind: tuple[int, ...]    # positions (within the accepted) of the channels whose gain on θ is held at 0
 
 
 class _ModelEKF(ExtendedKalmanFilter):
@@ -107,6 +138,15 @@ class PlanarEKF:
         self._blk = np.zeros(3)                      # pitch innovations' block: Σ y, Σ S, ticks
         self._r_key: tuple | None = None             # measurement_noise()'s cache: (table, version, aided)
         self._r = np.zeros(0)
+        self._tune_table: ParameterTable | None = None   # _tuning()'s cache: the table and its version
+        self._tune_version = -1
+        self._tune: _Tuning | None = None
+        self._subsets: dict[int, _Subset] = {}      # _subset()'s cache, per accepted-channel bit mask
+        H0 = np.zeros((m, self.n))                  # the rows of H that do not depend on the state
+        for i, j in enumerate(MEASURED_STATES[:min(m, 6)]):
+            H0[i, j] = 1.0
+        H0.flags.writeable = False
+        self._H0 = H0
 
     # ------------------------------------------------------------------ state
     @property
@@ -222,7 +262,7 @@ class PlanarEKF:
             self._dd_var = self._dd_var + a * ((d - self._d_prev) ** 2 - self._dd_var)
         self._d_prev = d.copy()
 
-    def _adapt_to_innovations(self, y: np.ndarray, S: np.ndarray, avail: np.ndarray) -> None:
+    def _adapt_to_innovations(self, y: list[float], S: list[float], avail: list[bool]) -> None:
         """Innovation-driven scales λ on the process noise (``WK_EKF_QI_*``), from the channel's normalised
         innovation squared r, which a consistent filter keeps at E[r] = 1:
         λ ← clip(λ exp(a (r − 1)), 1, ``WK_EKF_QI_MAX``), r clipped at the gate's square.
@@ -234,20 +274,28 @@ class PlanarEKF:
           ``WK_EKF_QI_BLK`` ticks, r = (Σ y)² / Σ S, a = block / ``WK_EKF_QI_TC_TH``. A consistent filter's
           innovations are white, so r is χ²(1) whatever the block; a slow pitch error the model does not
           explain (it follows the pitch motion: 3 % and a 15 ms lag of θ without a forecast) adds block² e²
-          to (Σ y)², where one tick's e² is lost in the sensor's noise."""
-        p = self.params
-        gate2 = p["WK_EKF_GATE"] ** 2
+          to (Σ y)², where one tick's e² is lost in the sensor's noise.
+
+        ``y``, ``S``: every channel's innovation and its variance this tick; ``avail``: which channels read."""
+        tune = self._tuning()
+        gate2 = tune.gate2
+        lam = self._lam.tolist()
         for i, ch in enumerate(_QI_CHANNELS[:3]):
             if avail[ch]:
-                r = min(float(y[ch] ** 2 / S[ch]), gate2)
-                self._lam[i] = self._lam[i] * math.exp(self.h / p["WK_EKF_QI_TC"] * (r - 1.0))
-        if avail[_QI_CHANNELS[3]]:
-            self._blk += (float(y[_QI_CHANNELS[3]]), float(S[_QI_CHANNELS[3]]), 1)
-            if self._blk[2] >= p["WK_EKF_QI_BLK"]:
-                r = min(self._blk[0] ** 2 / self._blk[1], gate2)
-                self._lam[3] *= math.exp(self._blk[2] * self.h / p["WK_EKF_QI_TC_TH"] * (r - 1.0))
-                self._blk[:] = 0.0
-        np.clip(self._lam, 1.0, p["WK_EKF_QI_MAX"], out=self._lam)
+                r = min(_square_over(y[ch], S[ch]), gate2)
+                lam[i] = lam[i] * math.exp(self.h / tune.qi_tc * (r - 1.0))
+        ch = _QI_CHANNELS[3]
+        if avail[ch]:
+            blk = self._blk
+            blk[0] += y[ch]
+            blk[1] += S[ch]
+            blk[2] += 1
+            if blk[2] >= tune.qi_blk:
+                r = min(_square_over(float(blk[0]), float(blk[1])), gate2)
+                lam[3] *= math.exp(float(blk[2]) * self.h / tune.qi_tc_th * (r - 1.0))
+                blk[:] = 0.0
+        # np.clip's arithmetic (max with the floor, then min with the cap; NaN stays NaN) on 4 scalars
+        self._lam = np.array([min(max(v, 1.0), tune.qi_max) for v in lam])
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -274,6 +322,49 @@ class PlanarEKF:
             self._r, self._r_key = np.array(r) ** 2, key
         return self._r.copy()
 
+    def _tuning(self) -> _Tuning:
+        """The update's parameters (:class:`_Tuning`), re-read only when the table or its version changes."""
+        p = self.params
+        if p is not self._tune_table or p.version != self._tune_version or self._tune is None:
+            aided = self.aided
+            r = self.measurement_noise()
+            r.flags.writeable = False
+            self._tune = _Tuning(
+                r=tuple(r.tolist()),
+                r_vec=r,
+                gate2=p["WK_EKF_GATE"] ** 2,
+                rst_t=p["WK_EKF_RST_T"],
+                acc_th=bool(p["WK_EKF_ACC_TH"]) if aided else True,
+                qi_adpt=bool(p["WK_EKF_QI_ADPT"]) if aided else False,
+                qd_tc=p["WK_EKF_QD_TC"] if aided else 1.0,
+                qi_tc=p["WK_EKF_QI_TC"] if aided else 1.0,
+                qi_tc_th=p["WK_EKF_QI_TC_TH"] if aided else 1.0,
+                qi_blk=p["WK_EKF_QI_BLK"] if aided else 1.0,
+                qi_max=p["WK_EKF_QI_MAX"] if aided else 1.0,
+            )
+            self._tune_table, self._tune_version = p, p.version
+            self._subsets.clear()
+        return self._tune
+
+    def _subset(self, mask: int) -> _Subset:
+        """The fusion's constant inputs for the accepted channels whose bits are set in ``mask``
+        (built once per set of channels and parameter version)."""
+        sub = self._subsets.get(mask)
+        if sub is None:
+            tune = self._tuning()
+            rows = np.array([i for i in range(len(self.channels)) if mask >> i & 1], dtype=np.intp)
+            accel = [pos for pos, i in enumerate(rows.tolist()) if i in _ACCEL_CHANNELS]
+            H = None
+            if not accel:                          # only state-selecting rows: H is a constant
+                H = self._H0[rows]
+                H.flags.writeable = False
+            R = np.diag(np.array(tune.r)[rows])
+            R.flags.writeable = False
+            rows.flags.writeable = False
+            sub = _Subset(rows, H, R, tuple(accel) if not tune.acc_th else ())
+            self._subsets[mask] = sub
+        return sub
+
     def _accel_model(self) -> tuple[np.ndarray, np.ndarray]:
         """The accelerometer's predicted specific force [f_x, f_z] and its Jacobian (2, 9) at the state,
         under the thrust the mixer expected at the end of the period, + d, in the flow's last instant."""
@@ -296,58 +387,99 @@ class PlanarEKF:
         H[:, 6:] = veh.M_inv[:2, :]
         return hx, H
 
-    def _predicted(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted measurements h(x) and their Jacobian H (channels × states)."""
-        m = len(self.channels)
-        idx = np.asarray(MEASURED_STATES[:min(m, 6)])
-        hx = np.full(m, np.nan)
-        H = np.zeros((m, self.n))
-        hx[:idx.size] = self.kf.x[idx, 0]
-        H[np.arange(idx.size), idx] = 1.0
-        if self.aided and np.isfinite(z[_ACCEL]).any():
-            hx[_ACCEL], H[_ACCEL] = self._accel_model()
+    def _model(self, accel: bool) -> tuple[list[float], np.ndarray]:
+        """Predicted measurements h(x) (a list, NaN where a channel has no model this tick) and the full
+        Jacobian H (channels × states): the constant selection rows (read-only) unless ``accel`` asks for
+        the accelerometer's model (aided), whose rows then fill a copy."""
+        xs = self.kf.x[:, 0].tolist()
+        hx = [xs[j] for j in MEASURED_STATES[:min(len(self.channels), 6)]]
+        H = self._H0
+        if self.aided:
+            if accel:
+                hx_acc, H_acc = self._accel_model()
+                hx += hx_acc.tolist()
+                H = H.copy()
+                H[_ACCEL] = H_acc
+            else:
+                hx += [math.nan, math.nan]
         return hx, H
 
+    def _predicted(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted measurements h(x) and their Jacobian H (channels × states) for the readings z."""
+        hx, H = self._model(self.aided and bool(np.isfinite(z[_ACCEL]).any()))
+        return np.array(hx), H.copy()
+
+    def _innovation_variance(self, H: np.ndarray, tune: _Tuning) -> list[float]:
+        """Each channel's innovation variance S_ii = (H P Hᵀ)_ii + R_ii.
+
+        With only selection rows (the paper's mode) and a finite P this is P_jj + R_ii, what the general
+        sum Σ_jk H_ij P_jk H_ik gives too (its other terms are exact zeros); otherwise that sum (einsum),
+        whose zeros times a non-finite P are NaN."""
+        P = self.kf.P
+        if not self.aided and math.isfinite(P.sum()):
+            d = P.diagonal().tolist()
+            return [d[j] + ri for j, ri in zip(MEASURED_STATES, tune.r, strict=False)]
+        return (np.einsum("ij,jk,ik->i", H, P, H) + tune.r_vec).tolist()
+
     def update(self, frame: SensorFrame) -> np.ndarray:
-        """Fuse the frame's available readings; returns the per-channel accepted mask."""
-        z = frame.as_vector()
-        if self.aided:
-            z = np.concatenate([z, frame.aiding_vector()])
+        """Fuse the frame's available readings; returns the per-channel accepted mask.
+
+        Per channel i: innovation y_i = z_i − h_i(x), variance S_ii, NIS y_i²/S_ii; a reading is fused when
+        the NIS is within ``WK_EKF_GATE``², else counted rejected (and, for a directly measured state, reset
+        to the reading once rejected for ``WK_EKF_RST_T`` s). The gating runs on Python floats (scalar IEEE
+        arithmetic, the same bits as numpy's elementwise ops) and the fusion on the accepted subset."""
         if not self.initialised:
-            if np.isfinite(z[1:4]).all():
+            zv = frame.as_vector()
+            if self.aided:
+                zv = np.concatenate([zv, frame.aiding_vector()])
+            if np.isfinite(zv[1:4]).all():
                 self.initialise(frame)
-            return np.isfinite(z)
-        r = self.measurement_noise()
-        hx, H = self._predicted(z)
-        y = z - hx
-        S = np.einsum("ij,jk,ik->i", H, self.kf.P, H) + r
-        with np.errstate(invalid="ignore"):
-            nis = y * y / S
-        self.last_nis = nis
-        avail = np.isfinite(z)
-        accept = avail & (nis <= self.params["WK_EKF_GATE"] ** 2)
-        reset = avail & ~accept & (frame.t - self._last_accept_t > self.params["WK_EKF_RST_T"])
-        reset[_ACCEL] = False                     # no state to reset to an acceleration
+            return np.isfinite(zv)
+        tune = self._tuning()
+        z = [frame.x, frame.depth, frame.pitch, frame.pitch_rate]
+        if self.aided:
+            z += [frame.dvl_u, frame.dvl_w, frame.acc_x, frame.acc_z]
+        avail = [math.isfinite(v) for v in z]
+        accel = self.aided and (avail[6] or avail[7])
+        hx, H = self._model(accel)
+        S = self._innovation_variance(H, tune)
+        y = [zi - hi for zi, hi in zip(z, hx, strict=True)]
+        nis = [_ratio(yi * yi, si) for yi, si in zip(y, S, strict=True)]
+        self.last_nis = np.array(nis)
+        t, gate2, last_t = frame.t, tune.gate2, self._last_accept_t
+        mask = 0
+        resets: list[int] = []
         for i, name in enumerate(self.channels):
-            if avail[i]:
-                if accept[i]:
-                    self.accepted[name] += 1
-                else:
-                    self.rejected[name] += 1
-        self._last_accept_t[accept | reset] = frame.t
-        for k in np.flatnonzero(reset).tolist():
-            self._reset_channel(k, float(z[k]), float(r[k]))
+            if not avail[i]:
+                continue
+            if nis[i] <= gate2:
+                mask |= 1 << i
+                self.accepted[name] += 1
+                last_t[i] = t
+            else:
+                self.rejected[name] += 1
+                if i < 6 and t - last_t[i] > tune.rst_t:    # no state to reset to an acceleration
+                    resets.append(i)
+                    last_t[i] = t
+        for k in resets:
+            self._reset_channel(k, float(z[k]), tune.r[k])
         self.nis_total = (0.0, 0)
-        if accept.any():
-            if reset.any():                       # a reset moved the state: predict the others again
-                hx, H = self._predicted(z)
-            self._fuse(z[accept].reshape(-1, 1), hx[accept].reshape(-1, 1), H[accept], np.diag(r[accept]),
-                       self._pitch_blind(accept))
+        if mask:
+            if resets:                            # a reset moved the state: predict the others again
+                hx, H = self._model(accel)
+            sub = self._subset(mask)
+            rows = sub.rows.tolist()
+            H_acc = sub.H if sub.H is not None else H[sub.rows]
+            self._fuse(np.array([z[i] for i in rows], dtype=float).reshape(-1, 1),
+                       np.array([z[i] - hx[i] for i in rows]).reshape(-1, 1), H_acc, sub.R, sub.blind)
         if self.aided:
             self._adapt()
-            if self.params["WK_EKF_QI_ADPT"]:
+            if tune.qi_adpt:
                 self._adapt_to_innovations(y, S, avail)
-        return accept
+        accept = [False] * len(z)
+        for i in range(len(z)):
+            accept[i] = bool(mask >> i & 1)
+        return np.array(accept)
 
     def _reset_channel(self, k: int, value: float, noise_var: float) -> None:
         """Set the state channel k measures to ``value``, its covariance row and column cleared to the
@@ -365,31 +497,24 @@ class PlanarEKF:
         k = self.channels.index(name)
         self._reset_channel(k, value, float(self.measurement_noise()[k]))
 
-    def _pitch_blind(self, accept: np.ndarray) -> np.ndarray | None:
-        """Among the accepted channels, those whose gain on θ is held at zero (``WK_EKF_ACC_TH`` 0: the
-        accelerometer's), or None when every channel may correct θ."""
-        if not self.aided or self.params["WK_EKF_ACC_TH"]:
-            return None
-        blind = np.zeros(len(self.channels), dtype=bool)
-        blind[_ACCEL] = True
-        return blind[accept] if blind[accept].any() else None
-
-    def _fuse(self, z: np.ndarray, hx: np.ndarray, H: np.ndarray, R: np.ndarray,
-              pitch_blind: np.ndarray | None = None) -> None:
+    def _fuse(self, z: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.ndarray,
+              pitch_blind: tuple[int, ...] = ()) -> None:
         """filterpy's ``ExtendedKalmanFilter.update(z, HJacobian=H, Hx=h(x), R)``, term by term and in its
         arithmetic (Joseph form, scipy's inverse), without its per-call deep copies and closures.
 
-        ``pitch_blind`` (aided, ``WK_EKF_ACC_TH`` 0) marks the channels whose gain on θ is set to zero: a
-        Schmidt ("consider") update. S keeps θ's share of their innovation (H is unchanged), and the Joseph
-        form P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ is the true covariance for any gain, so P stays honest."""
+        ``z`` (k, 1) the accepted readings, ``y`` (k, 1) their innovations z − h(x), ``H`` (k, n), ``R`` (k, k).
+        ``pitch_blind`` (aided, ``WK_EKF_ACC_TH`` 0) lists the positions of the channels whose gain on θ is
+        set to zero: a Schmidt ("consider") update. S keeps θ's share of their innovation (H is unchanged),
+        and the Joseph form P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ is the true covariance for any gain, so P
+        stays honest."""
         kf = self.kf
         PHT = np.dot(kf.P, H.T)
         kf.S = np.dot(H, PHT) + R
         kf.SI = linalg.inv(kf.S)
         kf.K = PHT.dot(kf.SI)
-        if pitch_blind is not None:
-            kf.K[2, pitch_blind] = 0.0
-        kf.y = np.subtract(z, hx)
+        for c in pitch_blind:
+            kf.K[2, c] = 0.0
+        kf.y = y
         kf.x = kf.x + np.dot(kf.K, kf.y)
         I_KH = kf._I - np.dot(kf.K, H)
         kf.P = np.dot(I_KH, kf.P).dot(I_KH.T) + np.dot(kf.K, R).dot(kf.K.T)
@@ -397,3 +522,22 @@ class PlanarEKF:
         kf.z, kf.R = z, R
         kf.x_post, kf.P_post = kf.x.copy(), kf.P.copy()
         self.nis_total = (float(kf.y[:, 0] @ kf.SI @ kf.y[:, 0]), int(z.shape[0]))
+
+
+def _ratio(a: float, b: float) -> float:
+    """a / b in IEEE arithmetic, as numpy divides: ±inf or NaN (and numpy's warning) for b = 0 where Python
+    would raise."""
+    try:
+        return a / b
+    except ZeroDivisionError:
+        with np.errstate(invalid="ignore"):
+            return float(np.float64(a) / np.float64(b))
+
+
+def _square_over(a: float, b: float) -> float:
+    """a ** 2 / b as numpy's float64 scalars compute it (pow, then division; pow(a, 2) is not always a·a),
+    inf or NaN where Python would raise."""
+    try:
+        return a ** 2 / b
+    except (OverflowError, ZeroDivisionError):
+        return float(np.float64(a) ** 2 / np.float64(b))
