@@ -54,6 +54,8 @@ CHANNELS = ("position", "depth", "pitch", "pitch_rate", "dvl_u", "dvl_w", "accel
 
 _ACCEL = slice(6, 8)
 _ACCEL_CHANNELS = (6, 7)
+_EYE6 = np.eye(6)
+_EYE6.flags.writeable = False
 _QI_CHANNELS = (6, 7, 3, 2)
 """The channel whose innovations scale each adapted noise: the disturbance's X (f_x), Z (f_z), M (pitch rate)
 and the pitch's random walk (pitch)."""
@@ -130,10 +132,20 @@ class PlanarEKF:
         self.nis_total = (0.0, 0)            # the accepted readings' joint NIS yᵀS⁻¹y and its dof, last tick
         self._last_accept_t = np.full(m, -np.inf)
         self._q_key: tuple | None = None
+        self._q_table: ParameterTable | None = None  # _process_noise()'s cache: the table and its version
+        self._q_version = -1
         self._q = np.zeros((self.n, self.n))
-        self._qd_param = np.zeros(3)                 # WK_EKF_QD_* (aided)
-        self._dd_var: np.ndarray | None = None       # mean square change of d̂ per tick (adaptive Q_d)
-        self._d_prev: np.ndarray | None = None
+        self._qd_param = [0.0, 0.0, 0.0]             # WK_EKF_QD_* (aided)
+        self._qd_adpt, self._qd_k = False, 0.0       # WK_EKF_QD_ADPT, WK_EKF_QD_K (aided)
+        self._dd_var: list[float] | None = None      # mean square change of d̂ per tick (adaptive Q_d)
+        self._d_prev: list[float] | None = None
+        self._meas_states = MEASURED_STATES[:min(m, 6)]
+        # aided: B = ∂ẋ/∂d = [0; M⁻¹] and B h (constant); F's template: I with the disturbance's decay
+        self._B = np.zeros((6, 3))
+        self._B[3:, :] = vehicle.M_inv
+        self._Bh = self._B * self.h
+        self._F0_decay: float | None = None
+        self._F0 = np.eye(9)
         self._lam = np.ones(4)                       # innovation-driven scales on Q_d (X, Z, M) and Q_θ
         self._blk = np.zeros(3)                      # pitch innovations' block: Σ y, Σ S, ticks
         self._r_key: tuple | None = None             # measurement_noise()'s cache: (table, version, aided)
@@ -165,7 +177,7 @@ class PlanarEKF:
 
     def sigma(self) -> np.ndarray:
         """1-σ of every state (6, or 9 aided)."""
-        return np.sqrt(np.diag(self.kf.P))
+        return np.sqrt(self.kf.P.diagonal())
 
     def converged(self) -> bool:
         """Initialised, finite, and position 1-σ below ``WK_EKF_CONV``."""
@@ -204,63 +216,74 @@ class PlanarEKF:
         (aided: with the disturbance's block B h + A B h²/2, B = ∂ẋ/∂d = [0; M⁻¹], and its decay)."""
         A = rates_jacobian(self.kf.vehicle, x[:6], tau, flow, 0)
         Ah = A * self.h
-        F6 = np.eye(6) + Ah + 0.5 * Ah @ Ah
+        F6 = _EYE6 + Ah + 0.5 * Ah @ Ah
         if not self.aided:
             return F6
-        B = np.zeros((6, 3))
-        B[3:, :] = self.kf.vehicle.M_inv
-        F = np.eye(9)
+        if self._F0_decay != self.kf.d_decay:     # I with the decay on the disturbance's block
+            F0 = np.eye(9)
+            F0[6:, 6:] *= self.kf.d_decay
+            self._F0, self._F0_decay = F0, self.kf.d_decay
+        F = self._F0.copy()
         F[:6, :6] = F6
-        F[:6, 6:] = B * self.h + 0.5 * self.h * (Ah @ B)
-        F[6:, 6:] *= self.kf.d_decay
+        F[:6, 6:] = self._Bh + 0.5 * self.h * (Ah @ self._B)
         return F
 
     def _process_noise(self) -> np.ndarray:
-        """Q = diag(q² h) from the WK_EKF_Q_* parameters, rebuilt only when one of them changes; aided,
-        the disturbance's density is adapted (``WK_EKF_QD_ADPT``, :meth:`_adapt`) and it and the pitch's
-        variance are scaled by the innovation-driven λ (``WK_EKF_QI_ADPT``, :meth:`_adapt_to_innovations`)."""
+        """Q = diag(q² h) from the WK_EKF_Q_* parameters, rebuilt only when one of them changes (looked at
+        when the table's version moves); aided, the disturbance's density is adapted (``WK_EKF_QD_ADPT``,
+        :meth:`_adapt`) and it and the pitch's variance are scaled by the innovation-driven λ
+        (``WK_EKF_QI_ADPT``, :meth:`_adapt_to_innovations`)."""
         p, h = self.params, self.h
-        names: tuple[str, ...]
-        if not self.aided:
-            names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
-        else:
-            names = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
-                     "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
-        key = tuple(p[n] for n in names)
-        if key != self._q_key:
-            q = np.array(key[:self.n])
-            self._q, self._q_key = np.diag(q**2 * h), key
-            tc = key[9] if self.aided else 0.0
-            self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
-            if self.aided:
-                self._qd_param = q[6:].copy()
-                if self._dd_var is None:
-                    self._dd_var = q[6:] ** 2 * h
+        if p is not self._q_table or p.version != self._q_version:
+            self._q_table, self._q_version = p, p.version
+            names: tuple[str, ...]
+            if not self.aided:
+                names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL",
+                         "WK_EKF_Q_RATE")
+            else:
+                names = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
+                         "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
+                self._qd_adpt, self._qd_k = bool(p["WK_EKF_QD_ADPT"]), p["WK_EKF_QD_K"]
+            key = tuple(p[n] for n in names)
+            if key != self._q_key:
+                q = np.array(key[:self.n])
+                self._q, self._q_key = np.diag(q**2 * h), key
+                tc = key[9] if self.aided else 0.0
+                self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
+                if self.aided:
+                    self._qd_param = q[6:].tolist()
+                    if self._dd_var is None:
+                        self._dd_var = (q[6:] ** 2 * h).tolist()
         if not self.aided:
             return self._q
         qd = self._qd_param
-        if p["WK_EKF_QD_ADPT"] and self._dd_var is not None:
-            qd = np.maximum(p["WK_EKF_QD_K"] * np.sqrt(self._dd_var / h), self._qd_param)
+        if self._qd_adpt and self._dd_var is not None:
+            # np.maximum(k √(var/h), q_d) per axis, on scalars (NaN stays NaN as in numpy)
+            k = self._qd_k
+            qd = [max(k * _sqrt(v / h), qp) for v, qp in zip(self._dd_var, self._qd_param, strict=True)]
+        lam = self._lam.tolist()
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
-        Qc, Mi = np.diag(qd**2 * self._lam[:3]), self.kf.vehicle.M_inv
+        Qc, Mi = np.diag([q * q * li for q, li in zip(qd, lam[:3], strict=True)]), self.kf.vehicle.M_inv
         Q = self._q.copy()
-        Q[2, 2] *= self._lam[3]
+        Q[2, 2] *= lam[3]
         Q[6:, 6:] = Qc * h
-        Q[3:6, 6:] = Mi @ Qc * (h * h / 2.0)
+        MiQc = Mi @ Qc
+        Q[3:6, 6:] = MiQc * (h * h / 2.0)
         Q[6:, 3:6] = Q[3:6, 6:].T
-        Q[3:6, 3:6] += Mi @ Qc @ Mi.T * (h**3 / 3.0)
+        Q[3:6, 3:6] += MiQc @ Mi.T * (h**3 / 3.0)
         return Q
 
     def _adapt(self) -> None:
         """Covariance matching for the disturbance's random walk (Mohamed & Schwarz 1999): q_d² h tracks the
         mean square of the estimate's change per tick (time constant ``WK_EKF_QD_TC``), so the disturbance's
         process noise follows the sea — small when a good forecast leaves little to explain, large without."""
-        d = self.kf.x[6:, 0]
+        d = self.kf.x[6:, 0].tolist()
         if self._d_prev is not None and self._dd_var is not None:
-            a = min(1.0, self.h / self.params["WK_EKF_QD_TC"])
-            self._dd_var = self._dd_var + a * ((d - self._d_prev) ** 2 - self._dd_var)
-        self._d_prev = d.copy()
+            a = min(1.0, self.h / self._tuning().qd_tc)
+            self._dd_var = [v + a * ((di - dp) * (di - dp) - v)
+                            for v, di, dp in zip(self._dd_var, d, self._d_prev, strict=True)]
+        self._d_prev = d
 
     def _adapt_to_innovations(self, y: list[float], S: list[float], avail: list[bool]) -> None:
         """Innovation-driven scales λ on the process noise (``WK_EKF_QI_*``), from the channel's normalised
@@ -365,41 +388,39 @@ class PlanarEKF:
             self._subsets[mask] = sub
         return sub
 
-    def _accel_model(self) -> tuple[np.ndarray, np.ndarray]:
-        """The accelerometer's predicted specific force [f_x, f_z] and its Jacobian (2, 9) at the state,
-        under the thrust the mixer expected at the end of the period, + d, in the flow's last instant."""
+    def _accel_model(self, H: np.ndarray) -> list[float]:
+        """The accelerometer's predicted specific force [f_x, f_z] at the state, under the thrust the mixer
+        expected at the end of the period, + d, in the flow's last instant; its Jacobian (2, 9) goes into
+        H's rows 6 and 7 (zero on entry)."""
         veh, kf = self.kf.vehicle, self.kf
         x6, d = kf.x[:6, 0], kf.x[6:, 0]
         tau = kf.tau_stages[2] + d
         rates = state_rates_at(veh, x6, tau, kf.flow, 2)
         A = rates_jacobian(veh, x6, tau, kf.flow, 2)
-        th, u, w, q = x6[2], x6[3], x6[4], x6[5]
+        _, _, th, u, w, q = x6.tolist()
+        r_u, r_w = rates[3], rates[4]
         g, c, s = veh.g, math.cos(th), math.sin(th)
-        hx = np.array([rates[3] + q * w + g * s, rates[4] - q * u - g * c])
-        H = np.zeros((2, 9))
-        H[:, :6] = A[3:5, :]
-        H[0, 2] += g * c
-        H[0, 4] += q
-        H[0, 5] += w
-        H[1, 2] += g * s
-        H[1, 3] -= q
-        H[1, 5] -= u
-        H[:, 6:] = veh.M_inv[:2, :]
-        return hx, H
+        H[6:8, :6] = A[3:5, :]
+        H[6, 2] += g * c
+        H[6, 4] += q
+        H[6, 5] += w
+        H[7, 2] += g * s
+        H[7, 3] -= q
+        H[7, 5] -= u
+        H[6:8, 6:] = veh.M_inv[:2, :]
+        return [r_u + q * w + g * s, r_w - q * u - g * c]
 
     def _model(self, accel: bool) -> tuple[list[float], np.ndarray]:
         """Predicted measurements h(x) (a list, NaN where a channel has no model this tick) and the full
         Jacobian H (channels × states): the constant selection rows (read-only) unless ``accel`` asks for
         the accelerometer's model (aided), whose rows then fill a copy."""
         xs = self.kf.x[:, 0].tolist()
-        hx = [xs[j] for j in MEASURED_STATES[:min(len(self.channels), 6)]]
+        hx = [xs[j] for j in self._meas_states]
         H = self._H0
         if self.aided:
             if accel:
-                hx_acc, H_acc = self._accel_model()
-                hx += hx_acc.tolist()
                 H = H.copy()
-                H[_ACCEL] = H_acc
+                hx += self._accel_model(H)
             else:
                 hx += [math.nan, math.nan]
         return hx, H
@@ -418,7 +439,7 @@ class PlanarEKF:
         P = self.kf.P
         if not self.aided and math.isfinite(P.sum()):
             d = P.diagonal().tolist()
-            return [d[j] + ri for j, ri in zip(MEASURED_STATES, tune.r, strict=False)]
+            return [d[j] + ri for j, ri in zip(self._meas_states, tune.r, strict=True)]
         return (np.einsum("ij,jk,ik->i", H, P, H) + tune.r_vec).tolist()
 
     def update(self, frame: SensorFrame) -> np.ndarray:
@@ -532,6 +553,11 @@ def _ratio(a: float, b: float) -> float:
     except ZeroDivisionError:
         with np.errstate(invalid="ignore"):
             return float(np.float64(a) / np.float64(b))
+
+
+def _sqrt(v: float) -> float:
+    """√v as numpy computes it: NaN (not Python's ValueError) below zero."""
+    return math.sqrt(v) if v >= 0.0 else math.nan
 
 
 def _square_over(a: float, b: float) -> float:
