@@ -145,10 +145,11 @@ class PlanarEKF:
         self._B = np.zeros((6, 3))
         self._B[3:, :] = vehicle.M_inv
         self._Bh = self._B * self.h
+        self._h2_2, self._h3_3 = self.h * self.h / 2.0, self.h**3 / 3.0     # Van Loan's h²/2, h³/3
         self._F0_decay: float | None = None
         self._F0 = np.eye(9)
-        self._lam = np.ones(4)                       # innovation-driven scales on Q_d (X, Z, M) and Q_θ
-        self._blk = np.zeros(3)                      # pitch innovations' block: Σ y, Σ S, ticks
+        self._lam = [1.0] * 4                        # innovation-driven scales on Q_d (X, Z, M) and Q_θ
+        self._blk = [0.0, 0.0, 0.0]                  # pitch innovations' block: Σ y, Σ S, ticks
         self._r_key: tuple | None = None             # measurement_noise()'s cache: (table, version, aided)
         self._r = np.zeros(0)
         self._tune_table: ParameterTable | None = None   # _tuning()'s cache: the table and its version
@@ -160,6 +161,10 @@ class PlanarEKF:
             H0[i, j] = 1.0
         H0.flags.writeable = False
         self._H0 = H0
+        # aided, with an accelerometer reading: the template of H with its constant block ∂f/∂d = M⁻¹'s rows
+        self._H0_acc = H0.copy()
+        if self.aided:
+            self._H0_acc[6:8, 6:] = vehicle.M_inv[:2, :]
 
     # ------------------------------------------------------------------ state
     @property
@@ -206,8 +211,8 @@ class PlanarEKF:
         self.kf.x = np.array(x0, dtype=float).reshape(-1, 1)
         self.kf.P = np.diag(var)
         lam0 = p["WK_EKF_QI_INIT"] if p["WK_EKF_QI_ADPT"] else 1.0
-        self._lam = np.array([lam0] * 3 + [1.0])     # start loose: the start-up transient
-        self._blk[:] = 0.0
+        self._lam = [float(lam0)] * 3 + [1.0]        # start loose: the start-up transient
+        self._blk = [0.0, 0.0, 0.0]
         self._last_accept_t[:] = frame.t
         self.initialised = True
 
@@ -226,7 +231,7 @@ class PlanarEKF:
             self._F0, self._F0_decay = F0, self.kf.d_decay
         F = self._F0.copy()
         F[:6, :6] = F6
-        F[:6, 6:] = self._Bh + 0.5 * self.h * (Ah @ self._B)
+        np.add(self._Bh, 0.5 * self.h * (Ah @ self._B), out=F[:6, 6:])
         return F
 
     def _process_noise(self) -> np.ndarray:
@@ -262,17 +267,18 @@ class PlanarEKF:
             # np.maximum(k √(var/h), q_d) per axis, on scalars (NaN stays NaN as in numpy)
             k = self._qd_k
             qd = [max(k * _sqrt(v / h), qp) for v, qp in zip(self._dd_var, self._qd_param, strict=True)]
-        lam = self._lam.tolist()
+        lam = self._lam
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
-        Qc, Mi = np.diag([q * q * li for q, li in zip(qd, lam[:3], strict=True)]), self.kf.vehicle.M_inv
+        c0, c1, c2 = (q * q * li for q, li in zip(qd, lam[:3], strict=True))
+        Qc, Mi = np.array([[c0, 0.0, 0.0], [0.0, c1, 0.0], [0.0, 0.0, c2]]), self.kf.vehicle.M_inv
         Q = self._q.copy()
         Q[2, 2] *= lam[3]
-        Q[6:, 6:] = Qc * h
+        Q[6, 6], Q[7, 7], Q[8, 8] = c0 * h, c1 * h, c2 * h    # Q_dd = Qc h (its zeros are _q's already)
         MiQc = Mi @ Qc
-        Q[3:6, 6:] = MiQc * (h * h / 2.0)
+        np.multiply(MiQc, self._h2_2, out=Q[3:6, 6:])
         Q[6:, 3:6] = Q[3:6, 6:].T
-        Q[3:6, 3:6] += MiQc @ Mi.T * (h**3 / 3.0)
+        np.add(self._q[3:6, 3:6], MiQc @ Mi.T * self._h3_3, out=Q[3:6, 3:6])
         return Q
 
     def _adapt(self) -> None:
@@ -303,7 +309,7 @@ class PlanarEKF:
         ``y``, ``S``: every channel's innovation and its variance this tick; ``avail``: which channels read."""
         tune = self._tuning()
         gate2 = tune.gate2
-        lam = self._lam.tolist()
+        lam = self._lam
         for i, ch in enumerate(_QI_CHANNELS[:3]):
             if avail[ch]:
                 r = min(_square_over(y[ch], S[ch]), gate2)
@@ -315,11 +321,11 @@ class PlanarEKF:
             blk[1] += S[ch]
             blk[2] += 1
             if blk[2] >= tune.qi_blk:
-                r = min(_square_over(float(blk[0]), float(blk[1])), gate2)
-                lam[3] *= math.exp(float(blk[2]) * self.h / tune.qi_tc_th * (r - 1.0))
-                blk[:] = 0.0
+                r = min(_square_over(blk[0], blk[1]), gate2)
+                lam[3] *= math.exp(blk[2] * self.h / tune.qi_tc_th * (r - 1.0))
+                blk[:] = [0.0, 0.0, 0.0]
         # np.clip's arithmetic (max with the floor, then min with the cap; NaN stays NaN) on 4 scalars
-        self._lam = np.array([min(max(v, 1.0), tune.qi_max) for v in lam])
+        self._lam = [min(max(v, 1.0), tune.qi_max) for v in lam]
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -393,7 +399,7 @@ class PlanarEKF:
     def _accel_model(self, H: np.ndarray) -> list[float]:
         """The accelerometer's predicted specific force [f_x, f_z] at the state, under the thrust the mixer
         expected at the end of the period, + d, in the flow's last instant; its Jacobian (2, 9) goes into
-        H's rows 6 and 7 (zero on entry)."""
+        H's rows 6 and 7 (on entry: zero but for the constant block ∂f/∂d = M⁻¹'s rows)."""
         veh, kf = self.kf.vehicle, self.kf
         x6, d = kf.x[:6, 0], kf.x[6:, 0]
         tau = kf.tau_stages[2] + d
@@ -402,14 +408,15 @@ class PlanarEKF:
         _, _, th, u, w, q = x6.tolist()
         r_u, r_w = rates[3], rates[4]
         g, c, s = veh.g, math.cos(th), math.sin(th)
-        H[6:8, :6] = A[3:5, :]
-        H[6, 2] += g * c
-        H[6, 4] += q
-        H[6, 5] += w
-        H[7, 2] += g * s
-        H[7, 3] -= q
-        H[7, 5] -= u
-        H[6:8, 6:] = veh.M_inv[:2, :]
+        # ∂f/∂x: the model's ν̇ rows plus ω × v − g_body's terms, on floats, written in one assignment
+        row_x, row_z = A[3:5, :].tolist()
+        row_x[2] += g * c
+        row_x[4] += q
+        row_x[5] += w
+        row_z[2] += g * s
+        row_z[3] -= q
+        row_z[5] -= u
+        H[6:8, :6] = [row_x, row_z]
         return [r_u + q * w + g * s, r_w - q * u - g * c]
 
     def _model(self, accel: bool) -> tuple[list[float], np.ndarray]:
@@ -421,7 +428,7 @@ class PlanarEKF:
         H = self._H0
         if self.aided:
             if accel:
-                H = H.copy()
+                H = self._H0_acc.copy()
                 hx += self._accel_model(H)
             else:
                 hx += [math.nan, math.nan]
