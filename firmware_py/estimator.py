@@ -446,9 +446,11 @@ class PlanarEKF:
         sum Σ_jk H_ij P_jk H_ik gives too (its other terms are exact zeros); otherwise that sum (einsum),
         whose zeros times a non-finite P are NaN."""
         P = self.kf.P
-        if not self.aided and math.isfinite(P.sum()):
-            d = P.diagonal().tolist()
-            return [d[j] + ri for j, ri in zip(self._meas_states, tune.r, strict=True)]
+        if not self.aided:
+            p = P.ravel().tolist()
+            if math.isfinite(sum(p)):              # every entry finite (a NaN or ±inf makes the sum so)
+                d = p[::self.n + 1]
+                return [d[j] + ri for j, ri in zip(self._meas_states, tune.r, strict=True)]
         return (np.einsum("ij,jk,ik->i", H, P, H) + tune.r_vec).tolist()
 
     def update(self, frame: SensorFrame) -> np.ndarray:
