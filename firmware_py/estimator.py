@@ -33,13 +33,13 @@ uncertainty), because a surge disturbance the random walk lags behind would othe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse (same bits)
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step, state_rates_at
 
+from .estimator_support import Subset, Tuning, innovation_scales, ratio, selection_rows, sqrt
 from .filterpy_ekf import ExtendedKalmanFilter
 from .params import ParameterTable
 from .sensors import SensorFrame
@@ -59,36 +59,6 @@ _EYE6.flags.writeable = False
 _QI_CHANNELS = (6, 7, 3, 2)
 """The channel whose innovations scale each adapted noise: the disturbance's X (f_x), Z (f_z), M (pitch rate)
 and the pitch's random walk (pitch)."""
-
-
-@dataclass(frozen=True, slots=True)
-class _Tuning:
-    """The parameters :meth:`PlanarEKF.update` reads every tick, read once per parameter-table version
-    (dictionary look-ups cost more than the arithmetic they feed)."""
-
-    r: tuple[float, ...]      # R's diagonal, per channel (m², rad², (rad/s)², (m/s)², (m/s²)²)
-    r_vec: np.ndarray         # the same as a read-only array
-    gate2: float              # WK_EKF_GATE² (NIS gate, σ²)
-    rst_t: float              # WK_EKF_RST_T (s)
-    acc_th: bool              # WK_EKF_ACC_TH: the accelerometer may correct θ
-    qi_adpt: bool             # WK_EKF_QI_ADPT
-    qd_tc: float              # WK_EKF_QD_TC (s)
-    qi_tc: float              # WK_EKF_QI_TC (s)
-    qi_tc_th: float           # WK_EKF_QI_TC_TH (s)
-    qi_blk: float             # WK_EKF_QI_BLK (ticks)
-    qi_max: float             # WK_EKF_QI_MAX
-
-
-@dataclass(frozen=True, slots=True)
-class _Subset:
-    """The fusion's constant inputs for one set of accepted channels (read-only arrays: they are handed to
-    the filterpy object, kf.R, and shared between ticks)."""
-
-    rows: tuple[int, ...]     # the accepted channels' indices, ascending
-    index: np.ndarray         # the same as an index array (for the accelerometer's rows of H)
-    H: np.ndarray | None      # their rows of H (k, n) when H is constant (no accelerometer row), else None
-    R: np.ndarray             # diag of their noise variances (k, k)
-    blind: tuple[int, ...]    # positions (within the accepted) of the channels whose gain on θ is held at 0
 
 
 class _ModelEKF(ExtendedKalmanFilter):
@@ -154,15 +124,11 @@ class PlanarEKF:
         self._r = np.zeros(0)
         self._tune_table: ParameterTable | None = None   # _tuning()'s cache: the table and its version
         self._tune_version = -1
-        self._tune: _Tuning | None = None
-        self._subsets: dict[int, _Subset] = {}      # _subset()'s cache, per accepted-channel bit mask
-        H0 = np.zeros((m, self.n))                  # the rows of H that do not depend on the state
-        for i, j in enumerate(MEASURED_STATES[:min(m, 6)]):
-            H0[i, j] = 1.0
-        H0.flags.writeable = False
-        self._H0 = H0
+        self._tune: Tuning | None = None
+        self._subsets: dict[int, Subset] = {}      # _subset()'s cache, per accepted-channel bit mask
+        self._H0 = selection_rows(self._meas_states, m, self.n)    # H's rows that do not depend on the state
         # aided, with an accelerometer reading: the template of H with its constant block ∂f/∂d = M⁻¹'s rows
-        self._H0_acc = H0.copy()
+        self._H0_acc = self._H0.copy()
         if self.aided:
             self._H0_acc[6:8, 6:] = vehicle.M_inv[:2, :]
 
@@ -266,7 +232,7 @@ class PlanarEKF:
         if self._qd_adpt and self._dd_var is not None:
             # np.maximum(k √(var/h), q_d) per axis, on scalars (NaN stays NaN as in numpy)
             k = self._qd_k
-            qd = [max(k * _sqrt(v / h), qp) for v, qp in zip(self._dd_var, self._qd_param, strict=True)]
+            qd = [max(k * sqrt(v / h), qp) for v, qp in zip(self._dd_var, self._qd_param, strict=True)]
         lam = self._lam
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
         # (Van Loan's series to h³): Q_dd = Qc h, Q_νd = M⁻¹ Qc h²/2, Q_νν = M⁻¹ Qc M⁻ᵀ h³/3
@@ -293,39 +259,9 @@ class PlanarEKF:
         self._d_prev = d
 
     def _adapt_to_innovations(self, y: list[float], S: list[float], avail: list[bool]) -> None:
-        """Innovation-driven scales λ on the process noise (``WK_EKF_QI_*``), from the channel's normalised
-        innovation squared r, which a consistent filter keeps at E[r] = 1:
-        λ ← clip(λ exp(a (r − 1)), 1, ``WK_EKF_QI_MAX``), r clipped at the gate's square.
-
-        * The disturbance's variance per axis X, Z, M, from the channel that sees that axis' load at every
-          tick (f_x, f_z, gyro), a = h / ``WK_EKF_QI_TC``: λ rests at 1 (the covariance-matched Q_d) and
-          grows within a few ticks when the load changes faster than Q_d allows (a wave group).
-        * The pitch's random walk, from the pitch sensor's innovations summed over blocks of
-          ``WK_EKF_QI_BLK`` ticks, r = (Σ y)² / Σ S, a = block / ``WK_EKF_QI_TC_TH``. A consistent filter's
-          innovations are white, so r is χ²(1) whatever the block; a slow pitch error the model does not
-          explain (it follows the pitch motion: 3 % and a 15 ms lag of θ without a forecast) adds block² e²
-          to (Σ y)², where one tick's e² is lost in the sensor's noise.
-
-        ``y``, ``S``: every channel's innovation and its variance this tick; ``avail``: which channels read."""
-        tune = self._tuning()
-        gate2 = tune.gate2
-        lam = self._lam
-        for i, ch in enumerate(_QI_CHANNELS[:3]):
-            if avail[ch]:
-                r = min(_square_over(y[ch], S[ch]), gate2)
-                lam[i] = lam[i] * math.exp(self.h / tune.qi_tc * (r - 1.0))
-        ch = _QI_CHANNELS[3]
-        if avail[ch]:
-            blk = self._blk
-            blk[0] += y[ch]
-            blk[1] += S[ch]
-            blk[2] += 1
-            if blk[2] >= tune.qi_blk:
-                r = min(_square_over(blk[0], blk[1]), gate2)
-                lam[3] *= math.exp(blk[2] * self.h / tune.qi_tc_th * (r - 1.0))
-                blk[:] = [0.0, 0.0, 0.0]
-        # np.clip's arithmetic (max with the floor, then min with the cap; NaN stays NaN) on 4 scalars
-        self._lam = [min(max(v, 1.0), tune.qi_max) for v in lam]
+        """The innovation-driven scales λ on the process noise (``WK_EKF_QI_*``,
+        :func:`~firmware_py.estimator_support.innovation_scales`) after this tick's innovations."""
+        self._lam = innovation_scales(self._lam, self._blk, y, S, avail, self._tuning(), self.h, _QI_CHANNELS)
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:
         """Propagate one period under the thruster load τ at t, t + h/2, t + h (rows of ``tau_stages``),
@@ -352,48 +288,22 @@ class PlanarEKF:
             self._r, self._r_key = np.array(r) ** 2, key
         return self._r.copy()
 
-    def _tuning(self) -> _Tuning:
-        """The update's parameters (:class:`_Tuning`), re-read only when the table or its version changes."""
+    def _tuning(self) -> Tuning:
+        """The update's parameters (:class:`Tuning`), re-read only when the table or its version changes."""
         p = self.params
         if p is not self._tune_table or p.version != self._tune_version or self._tune is None:
-            aided = self.aided
-            r = self.measurement_noise()
-            r.flags.writeable = False
-            self._tune = _Tuning(
-                r=tuple(r.tolist()),
-                r_vec=r,
-                gate2=p["WK_EKF_GATE"] ** 2,
-                rst_t=p["WK_EKF_RST_T"],
-                acc_th=bool(p["WK_EKF_ACC_TH"]) if aided else True,
-                qi_adpt=bool(p["WK_EKF_QI_ADPT"]) if aided else False,
-                qd_tc=p["WK_EKF_QD_TC"] if aided else 1.0,
-                qi_tc=p["WK_EKF_QI_TC"] if aided else 1.0,
-                qi_tc_th=p["WK_EKF_QI_TC_TH"] if aided else 1.0,
-                qi_blk=p["WK_EKF_QI_BLK"] if aided else 1.0,
-                qi_max=p["WK_EKF_QI_MAX"] if aided else 1.0,
-            )
+            self._tune = Tuning.of(p, self.measurement_noise(), self.aided)
             self._tune_table, self._tune_version = p, p.version
             self._subsets.clear()
         return self._tune
 
-    def _subset(self, mask: int) -> _Subset:
+    def _subset(self, mask: int) -> Subset:
         """The fusion's constant inputs for the accepted channels whose bits are set in ``mask``
         (built once per set of channels and parameter version)."""
         sub = self._subsets.get(mask)
         if sub is None:
             tune = self._tuning()
-            rows = tuple(i for i in range(len(self.channels)) if mask >> i & 1)
-            index = np.array(rows, dtype=np.intp)
-            accel = [pos for pos, i in enumerate(rows) if i in _ACCEL_CHANNELS]
-            H = None
-            if not accel:                          # only state-selecting rows: H is a constant
-                H = self._H0[index]
-                H.flags.writeable = False
-            R = np.diag(np.array(tune.r)[index])
-            R.flags.writeable = False
-            index.flags.writeable = False
-            sub = _Subset(rows, index, H, R, tuple(accel) if not tune.acc_th else ())
-            self._subsets[mask] = sub
+            sub = self._subsets[mask] = Subset.of(mask, self._H0, tune.r, _ACCEL_CHANNELS, tune.acc_th)
         return sub
 
     def _accel_model(self, H: np.ndarray) -> list[float]:
@@ -439,7 +349,7 @@ class PlanarEKF:
         hx, H = self._model(self.aided and bool(np.isfinite(z[_ACCEL]).any()))
         return np.array(hx), H.copy()
 
-    def _innovation_variance(self, H: np.ndarray, tune: _Tuning) -> list[float]:
+    def _innovation_variance(self, H: np.ndarray, tune: Tuning) -> list[float]:
         """Each channel's innovation variance S_ii = (H P Hᵀ)_ii + R_ii.
 
         With only selection rows (the paper's mode) and a finite P this is P_jj + R_ii, what the general
@@ -483,7 +393,7 @@ class PlanarEKF:
         resets: list[int] = []
         for i, name in enumerate(self.channels):
             yi = z[i] - hx[i]
-            ni = _ratio(yi * yi, S[i])
+            ni = ratio(yi * yi, S[i])
             y.append(yi)
             nis.append(ni)
             if not avail[i]:
@@ -561,26 +471,3 @@ class PlanarEKF:
         y1 = y[:, 0]
         self.nis_total = (float(y1.dot(kf.SI).dot(y1)), int(z.shape[0]))
 
-
-def _ratio(a: float, b: float) -> float:
-    """a / b in IEEE arithmetic, as numpy divides: ±inf or NaN (and numpy's warning) for b = 0 where Python
-    would raise."""
-    try:
-        return a / b
-    except ZeroDivisionError:
-        with np.errstate(invalid="ignore"):
-            return float(np.float64(a) / np.float64(b))
-
-
-def _sqrt(v: float) -> float:
-    """√v as numpy computes it: NaN (not Python's ValueError) below zero."""
-    return math.sqrt(v) if v >= 0.0 else math.nan
-
-
-def _square_over(a: float, b: float) -> float:
-    """a ** 2 / b as numpy's float64 scalars compute it (pow, then division; pow(a, 2) is not always a·a),
-    inf or NaN where Python would raise."""
-    try:
-        return a ** 2 / b
-    except (OverflowError, ZeroDivisionError):
-        return float(np.float64(a) ** 2 / np.float64(b))
