@@ -8,10 +8,9 @@ themselves when the cause goes away.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from enum import IntEnum
-
-import numpy as np
 
 from .estimator import PlanarEKF
 from .modes import MAV_SEVERITY
@@ -74,9 +73,12 @@ class EKFFailsafe:
         """The action to take now (NONE unless the failsafe trips at this tick while armed)."""
         if not ekf.initialised:
             return FailsafeAction.NONE
-        sig = ekf.sigma()
-        finite = bool(np.all(np.isfinite(ekf.x)))
-        bad = not finite or not np.all(np.isfinite(sig)) or max(sig[0], sig[1]) > self.params["FS_EKF_THRESH"]
+        # every tick: on Python floats, not 6-element arrays. σ = √var is finite exactly where the variance
+        # is finite and not negative (√ of a negative is NaN); √ is correctly rounded in math and numpy alike
+        var = ekf.P.diagonal().tolist()
+        finite = all(map(math.isfinite, ekf.x.tolist()))
+        bad = (not finite or not all(map(math.isfinite, var)) or min(var) < 0.0
+               or max(math.sqrt(var[0]), math.sqrt(var[1])) > self.params["FS_EKF_THRESH"])
         if not bad:
             if self.active:
                 self.active = False

@@ -129,3 +129,48 @@ def test_dob_feeds_back_the_estimated_disturbance():
     lim = np.array(m.firmware.params.axes("WK_DOB_LIM")) * np.array(m.firmware.params.axes("WK_TAU_MAX"))
     np.testing.assert_allclose(r.control.tau_dob, np.clip(-r.d_hat, -lim, lim))
     assert np.any(np.abs(r.d_hat) > 1.0)
+
+
+def _hovering_ekf(params, ticks: int = 40):
+    """A paper-mode EKF that has fused ``ticks`` steady frames at 5 m depth (thrust cancelling buoyancy)."""
+    from bridge.models.vehicle import VehicleParams
+    from firmware_py.estimator import PlanarEKF
+
+    ekf = PlanarEKF(VehicleParams.load("bluerov2_heavy"), params, 0.05)
+    hover = np.zeros((3, 3))
+    hover[:, 1] = -2.0
+    ekf.update(SensorFrame(0.0, 0.0, 5.0, 0.0, 0.0))
+    for k in range(1, ticks):
+        ekf.predict(hover)
+        ekf.update(SensorFrame(k * 0.05, 0.0, 5.0, 0.0, 0.0))
+    return ekf, hover
+
+
+def test_ekf_per_tick_caches_follow_parameter_changes():
+    """The gate, R and Q are read once per parameter-table version: a change made through the table
+    (MAVLink PARAM_SET) acts from the next tick."""
+    params = load_params()
+    ekf, hover = _hovering_ekf(params)
+    ekf.predict(hover)
+    sigma_pos = math.sqrt(ekf.P[0, 0] + params["WK_EKF_R_POS"] ** 2)
+    assert ekf.update(SensorFrame(2.0, 3.0 * sigma_pos, 5.0, 0.0, 0.0))[0]     # 3 σ: within the 5 σ gate
+    assert params.set("WK_EKF_GATE", 2.0) is None
+    ekf.predict(hover)
+    sigma_pos = math.sqrt(ekf.P[0, 0] + params["WK_EKF_R_POS"] ** 2)
+    assert not ekf.update(SensorFrame(2.05, ekf.x[0] + 3.0 * sigma_pos, 5.0, 0.0, 0.0))[0]
+    assert params.set("WK_EKF_R_POS", 0.05) is None and params.set("WK_EKF_Q_POS", 0.02) is None
+    ekf.predict(hover)
+    assert ekf.kf.Q[0, 0] == 0.02**2 * 0.05
+    ekf.update(SensorFrame(2.1, ekf.x[0], 5.0, 0.0, 0.0))
+    assert ekf.kf.R[0, 0] == 0.05**2
+
+
+def test_ekf_non_finite_covariance_gates_everything_out():
+    """With a non-finite entry anywhere in P, no reading passes the gate (S = H P Hᵀ + R is NaN, as the
+    general sum gives it), whatever the shortcut the paper's mode takes for a finite P."""
+    params = load_params()
+    ekf, hover = _hovering_ekf(params, 10)
+    ekf.predict(hover)
+    ekf.kf.P[0, 4] = ekf.kf.P[4, 0] = math.inf
+    accepted = ekf.update(SensorFrame(0.5, 0.0, 5.0, 0.0, 0.0))
+    assert not accepted.any() and np.isnan(ekf.last_nis).all()
