@@ -10,6 +10,8 @@
 """
 from __future__ import annotations
 
+from bisect import bisect_right
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +28,29 @@ NEUTRAL_PWM_US = 1500
 
 WRENCH_AXES = ("X", "Y", "Z", "K", "M", "N")
 """Rows of the 6-DoF wrench matrix: forces along body x, y, z; moments about x, y, z."""
+
+
+_FEW = 16
+"""Up to this many values (one vehicle's thrusters), thrust() and pwm() work in Python floats."""
+
+
+def _interp(x: float, xp: list[float], fp: list[float]) -> float:
+    """``np.interp(x, xp, fp)`` for one finite x and strictly increasing xp, to the last bit.
+
+    numpy's C loop (``arr_interp``): the piece j with xp[j] ≤ x < xp[j+1], the end values
+    beyond either end and at the last knot, fp[j] on a knot, else slope (x − xp[j]) + fp[j]
+    with the slope (fp[j+1] − fp[j]) / (xp[j+1] − xp[j]).
+    """
+    n = len(xp)
+    if x < xp[0]:
+        return fp[0]
+    if x >= xp[n - 1]:
+        return fp[n - 1]
+    j = bisect_right(xp, x) - 1
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
 
 
 class T200Curve:
@@ -58,20 +83,54 @@ class T200Curve:
         self._fwd_pwm = np.linspace(hi, pwm_max, int(round((pwm_max - hi) / 0.05)) + 1)
         self._rev_f = self._fwd(self._rev_pwm)
         self._fwd_f = self._fwd(self._fwd_pwm)
+        # The inverse tables as Python floats, for pwm_values(); an integer neutral would make pwm()'s
+        # output integer (np.full's dtype), which pwm_values() does not reproduce: it then defers to pwm()
+        self._inverse_lists = (self._rev_f.tolist(), self._rev_pwm.tolist(), self._fwd_f.tolist(),
+                               self._fwd_pwm.tolist())
+        self._float_neutral = np.asarray(pwm_neutral).dtype.kind == "f"
 
     def thrust(self, pwm) -> np.ndarray:
         """Thrust (N, positive along the thruster's direction) for PWM (µs), clipped to 1100–1900 µs."""
-        p = np.minimum(np.maximum(np.asarray(pwm, dtype=float), self.pwm_min), self.pwm_max)   # np.clip, cheaper
+        p = np.asarray(pwm, dtype=float)
+        if p.ndim == 1 and p.size <= _FEW:
+            return np.array(self.thrust_values(p.tolist()))
+        p = np.minimum(np.maximum(p, self.pwm_min), self.pwm_max)   # np.clip, cheaper
         return self._fwd(p)
+
+    def thrust_values(self, pwm: Iterable[float]) -> list[float]:
+        """:meth:`thrust` of a few PWM values (µs), as floats (N): the same bits, a fraction of the time."""
+        lo, hi = self.pwm_min, self.pwm_max
+        # np.minimum(np.maximum(p, lo), hi) element by element: NaN passes through as numpy's does
+        return self._fwd.values([lo if p < lo else (hi if p > hi else p) for p in map(float, pwm)])
 
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
-        f = np.minimum(np.maximum(np.asarray(thrust, dtype=float), self.thrust_min), self.thrust_max)
+        f = np.asarray(thrust, dtype=float)
+        if f.ndim == 1 and f.size <= _FEW and self._float_neutral:
+            return np.array(self.pwm_values(f.tolist()))
+        f = np.minimum(np.maximum(f, self.thrust_min), self.thrust_max)
         out = np.full(f.shape, self.pwm_neutral)
         pos, neg = f > 0.0, f < 0.0
         out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)
         out[neg] = np.interp(f[neg], self._rev_f, self._rev_pwm)
         return out if out.ndim else float(out)  # type: ignore[return-value]  # a scalar in, a scalar out
+
+    def pwm_values(self, thrust: Iterable[float]) -> list[float]:
+        """:meth:`pwm` of a few thrusts (N), as floats (µs): the same bits, a fraction of the time."""
+        if not self._float_neutral:
+            return [float(v) for v in np.atleast_1d(self.pwm(np.asarray(list(thrust), dtype=float)))]
+        lo, hi, neutral = self.thrust_min, self.thrust_max, float(self.pwm_neutral)
+        rev_f, rev_pwm, fwd_f, fwd_pwm = self._inverse_lists
+        out = []
+        for f in map(float, thrust):
+            f = lo if f < lo else (hi if f > hi else f)
+            if f > 0.0:
+                out.append(_interp(f, fwd_f, fwd_pwm))
+            elif f < 0.0:
+                out.append(_interp(f, rev_f, rev_pwm))
+            else:                  # zero, and NaN (neither > 0 nor < 0): neutral, as pwm()'s masks leave it
+                out.append(neutral)
+        return out
 
     @classmethod
     def from_config(cls, cfg: dict) -> T200Curve:
