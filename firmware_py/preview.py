@@ -40,6 +40,7 @@ import numpy as np
 from bridge.models import kernels
 from bridge.models.vehicle import VehicleParams, WaveComponents, body_flow, hydrodynamic_load_at, ned_to_body
 
+from .control import clip_float
 from .params import ParameterTable
 
 __all__ = ["SaturationPreview", "preview_excursions", "preview_gains"]
@@ -131,9 +132,12 @@ class SaturationPreview:
         elif t >= self._next_t:
             self._next_t = t + p["WK_PRV_PERIOD"]
             self._goal = self._choose(components, x_hat, setpoint, t)
+        # The slew in floats (np.clip on two elements, without its overhead; the bounds are never zero)
         step = p["WK_PRV_RATE"] * self.h
-        self.shift = self.shift + np.clip(self._goal - self.shift, -step, step)
-        return np.array([self.shift[0], self.shift[1], 0.0])
+        (sx, sz), (gx, gz) = self.shift.tolist(), self._goal.tolist()
+        sx, sz = sx + clip_float(gx - sx, -step, step), sz + clip_float(gz - sz, -step, step)
+        self.shift = np.array([sx, sz])
+        return np.array([sx, sz, 0.0])
 
     def _choose(self, components: WaveComponents, x_hat: np.ndarray, setpoint: np.ndarray, t: float) -> np.ndarray:
         """The candidate shift per axis with the smallest predicted largest excursion (0 unless it matters)."""
