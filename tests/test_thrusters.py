@@ -151,6 +151,10 @@ def test_float_paths_are_the_array_paths_to_the_last_bit(curve):
                           [np.inf, -np.inf, 0.0, -0.0, np.nan]])
     ref = curve.thrust(pwm.reshape(1, -1))[0]                   # 2-D: the array path
     assert np.array_equal(_bits(curve.thrust_values(pwm.tolist())), _bits(ref))
+    assert np.array_equal(_bits(curve.thrust_values(pwm.tolist())), _bits(ref))         # again, from the memo
+    whole = np.trunc(pwm[np.isfinite(pwm)])
+    assert np.array_equal(_bits(curve.thrust_values(whole.astype(int).tolist())),        # whole µs as ints
+                          _bits(curve.thrust(whole.reshape(1, -1))[0]))
     assert np.array_equal(_bits(curve.thrust(pwm[-8:])), _bits(ref[-8:]))
     tables = np.concatenate([curve._fwd_f, curve._rev_f])
     f = np.concatenate([rng.uniform(-45.0, 55.0, 20000), rng.uniform(-1e-4, 1e-4, 5000), tables,

@@ -33,6 +33,9 @@ WRENCH_AXES = ("X", "Y", "Z", "K", "M", "N")
 _FEW = 16
 """Up to this many values (one vehicle's thrusters), thrust() and pwm() work in Python floats."""
 
+_MEMO = 4096
+"""thrust_values() keeps the thrust of this many distinct PWM values (the 801 whole µs of 1100–1900 fit)."""
+
 
 def _interp(x: float, xp: list[float], fp: list[float]) -> float:
     """``np.interp(x, xp, fp)`` for one finite x and strictly increasing xp, to the last bit.
@@ -88,6 +91,7 @@ class T200Curve:
         self._inverse_lists = (self._rev_f.tolist(), self._rev_pwm.tolist(), self._fwd_f.tolist(),
                                self._fwd_pwm.tolist())
         self._float_neutral = np.asarray(pwm_neutral).dtype.kind == "f"
+        self._thrust_memo: dict[float, float] = {}
 
     def thrust(self, pwm) -> np.ndarray:
         """Thrust (N, positive along the thruster's direction) for PWM (µs), clipped to 1100–1900 µs."""
@@ -98,10 +102,23 @@ class T200Curve:
         return self._fwd(p)
 
     def thrust_values(self, pwm: Iterable[float]) -> list[float]:
-        """:meth:`thrust` of a few PWM values (µs), as floats (N): the same bits, a fraction of the time."""
-        lo, hi = self.pwm_min, self.pwm_max
-        # np.minimum(np.maximum(p, lo), hi) element by element: NaN passes through as numpy's does
-        return self._fwd.values([lo if p < lo else (hi if p > hi else p) for p in map(float, pwm)])
+        """:meth:`thrust` of a few PWM values (µs), as floats (N): the same bits, a fraction of the time.
+
+        ESCs take whole microseconds, so the same few hundred pulses recur: each value's thrust is
+        kept (up to ``_MEMO`` of them) and looked up the next time.
+        """
+        memo, lo, hi = self._thrust_memo, self.pwm_min, self.pwm_max
+        out = []
+        for p in pwm:
+            f = memo.get(p)
+            if f is None:
+                p = float(p)
+                # np.minimum(np.maximum(p, lo), hi): NaN passes through as numpy's does
+                f = self._fwd.values((lo if p < lo else (hi if p > hi else p),))[0]
+                if p == p and len(memo) < _MEMO:
+                    memo[p] = f
+            out.append(f)
+        return out
 
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
