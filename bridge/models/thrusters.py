@@ -10,7 +10,6 @@
 """
 from __future__ import annotations
 
-from bisect import bisect_right
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -35,25 +34,6 @@ _FEW = 16
 
 _MEMO = 4096
 """thrust_values() keeps the thrust of this many distinct PWM values (the 801 whole µs of 1100–1900 fit)."""
-
-
-def _interp(x: float, xp: list[float], fp: list[float]) -> float:
-    """``np.interp(x, xp, fp)`` for one finite x and strictly increasing xp, to the last bit.
-
-    numpy's C loop (``arr_interp``): the piece j with xp[j] ≤ x < xp[j+1], the end values
-    beyond either end and at the last knot, fp[j] on a knot, else slope (x − xp[j]) + fp[j]
-    with the slope (fp[j+1] − fp[j]) / (xp[j+1] − xp[j]).
-    """
-    n = len(xp)
-    if x < xp[0]:
-        return fp[0]
-    if x >= xp[n - 1]:
-        return fp[n - 1]
-    j = bisect_right(xp, x) - 1
-    if xp[j] == x:
-        return fp[j]
-    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
-    return slope * (x - xp[j]) + fp[j]
 
 
 class T200Curve:
@@ -86,10 +66,8 @@ class T200Curve:
         self._fwd_pwm = np.linspace(hi, pwm_max, int(round((pwm_max - hi) / 0.05)) + 1)
         self._rev_f = self._fwd(self._rev_pwm)
         self._fwd_f = self._fwd(self._fwd_pwm)
-        # The inverse tables as Python floats, for pwm_values(); an integer neutral would make pwm()'s
-        # output integer (np.full's dtype), which pwm_values() does not reproduce: it then defers to pwm()
-        self._inverse_lists = (self._rev_f.tolist(), self._rev_pwm.tolist(), self._fwd_f.tolist(),
-                               self._fwd_pwm.tolist())
+        # An integer neutral would make pwm()'s output integer (np.full's dtype), which pwm_values()
+        # does not reproduce: it then defers to pwm()
         self._float_neutral = np.asarray(pwm_neutral).dtype.kind == "f"
         self._thrust_memo: dict[float, float] = {}
 
@@ -133,20 +111,30 @@ class T200Curve:
         return out if out.ndim else float(out)  # type: ignore[return-value]  # a scalar in, a scalar out
 
     def pwm_values(self, thrust: Iterable[float]) -> list[float]:
-        """:meth:`pwm` of a few thrusts (N), as floats (µs): the same bits, a fraction of the time."""
+        """:meth:`pwm` of a few thrusts (N), as floats (µs): the same bits, a fraction of the time.
+
+        The clip and the sign test in floats, then one ``np.interp`` per branch on the thrusts that
+        take it (numpy's own loop: its binary search over the contiguous table stays in cache,
+        where a bisect over the table as Python floats would not).
+        """
+        values = [float(v) for v in thrust]
         if not self._float_neutral:
-            return [float(v) for v in np.atleast_1d(self.pwm(np.asarray(list(thrust), dtype=float)))]
-        lo, hi, neutral = self.thrust_min, self.thrust_max, float(self.pwm_neutral)
-        rev_f, rev_pwm, fwd_f, fwd_pwm = self._inverse_lists
-        out = []
-        for f in map(float, thrust):
-            f = lo if f < lo else (hi if f > hi else f)
+            return [float(v) for v in np.atleast_1d(self.pwm(np.asarray(values, dtype=float)))]
+        lo, hi = self.thrust_min, self.thrust_max
+        out = [float(self.pwm_neutral)] * len(values)   # zero, and NaN (neither > 0 nor < 0), as pwm()'s masks
+        pos: list[int] = []
+        neg: list[int] = []
+        for i, f in enumerate(values):
+            f = lo if f < lo else (hi if f > hi else f)     # np.minimum(np.maximum(f, lo), hi): NaN passes
+            values[i] = f
             if f > 0.0:
-                out.append(_interp(f, fwd_f, fwd_pwm))
+                pos.append(i)
             elif f < 0.0:
-                out.append(_interp(f, rev_f, rev_pwm))
-            else:                  # zero, and NaN (neither > 0 nor < 0): neutral, as pwm()'s masks leave it
-                out.append(neutral)
+                neg.append(i)
+        for idx, xp, fp in ((pos, self._fwd_f, self._fwd_pwm), (neg, self._rev_f, self._rev_pwm)):
+            if idx:
+                for i, v in zip(idx, np.interp([values[i] for i in idx], xp, fp).tolist(), strict=True):
+                    out[i] = v
         return out
 
     @classmethod
