@@ -47,53 +47,101 @@ class ControlOutput:
     tau_dob: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the DOB part as applied
 
 
+def clip_float(x: float, lo: float, hi: float) -> float:
+    """``np.clip(x, lo, hi)`` (array bounds) and ``np.minimum(np.maximum(x, lo), hi)`` for one float, to the bit.
+
+    numpy's comparisons spelt out: NaN passes through, and a tie (±0 against ∓0) takes the bound.
+    """
+    m = x if (x > lo or x != x) else lo
+    return m if (m < hi or m != m) else hi
+
+
 class StationKeepingController:
     def __init__(self, params: ParameterTable, vehicle: VehicleParams):
         self.params = params
         self.vehicle = vehicle
-        self._prev_error: np.ndarray | None = None
+        self._prev_error: tuple[float, float, float] | None = None
         self._gains_key: tuple[int, int] | None = None
         self._gains: tuple[np.ndarray, ...] = ()
+        self._gain_floats: tuple[tuple[float, float, float], ...] = ()
+        self._dob_lim: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._g_ref_key: tuple[float, float] | None = None
+        self._g_ref = 0.0
 
     def gains(self) -> tuple[np.ndarray, ...]:
         """(K_p (1/s), K_d, ν_max (m/s, rad/s), K_pv (s/m), τ_max (N, N m)) per axis [surge, heave, pitch],
         read from the parameter table again only when it has changed (its ``version``)."""
+        self._refresh()
+        return self._gains
+
+    def _refresh(self) -> None:
+        """Re-read the gains (arrays and floats) and the DOB limits when the parameter table has changed."""
         key = (id(self.params), self.params.version)
         if key != self._gains_key:
             self._gains = tuple(np.array(self.params.axes(name)) for name in _GAIN_FAMILIES)
+            self._gain_floats = tuple(tuple(g.tolist()) for g in self._gains)
+            # np.array(axes) * τ_max, the same products
+            self._dob_lim = tuple((np.array(self.params.axes("WK_DOB_LIM")) * self._gains[4]).tolist())
             self._gains_key = key
-        return self._gains
 
     def reset(self) -> None:
         self._prev_error = None
 
     def disturbance_feedback(self, d_hat: np.ndarray | None) -> np.ndarray:
         """τ_DOB = −g_dob · d̂, limited to WK_DOB_LIM_* · τ_max; zeros when the DOB is off or d̂ is None."""
+        return np.array(self._disturbance_feedback(d_hat))
+
+    def _disturbance_feedback(self, d_hat: np.ndarray | None) -> list[float]:
+        """:meth:`disturbance_feedback` as floats."""
         p = self.params
         if d_hat is None or not p["WK_DOB_ENABLE"]:
-            return np.zeros(3)
-        lim = np.array(p.axes("WK_DOB_LIM")) * self.gains()[4]
-        return np.clip(-p["WK_DOB_GAIN"] * np.asarray(d_hat, dtype=float), -lim, lim)
+            return [0.0, 0.0, 0.0]
+        self._refresh()
+        g = -p["WK_DOB_GAIN"]
+        return [clip_float(g * d, -lim, lim)
+                for d, lim in zip(np.asarray(d_hat, dtype=float).tolist(), self._dob_lim, strict=True)]
 
     def update(self, x_hat: np.ndarray, setpoint: np.ndarray, tau_ff: np.ndarray | None, dt: float,
                d_hat: np.ndarray | None = None) -> ControlOutput:
         """One control step from the estimate x̂ = [x, z, θ, u, w, q] to the setpoint [x, z, θ]
-        (``d_hat``: the estimated disturbance wrench, fed back when the DOB is on)."""
+        (``d_hat``: the estimated disturbance wrench, fed back when the DOB is on).
+
+        In Python floats, axis by axis: the same IEEE operations in the same order as the array
+        form (everything here is element-wise), a third of the time on three-element arrays.
+        """
         p = self.params
-        eta, nu = x_hat[:3], x_hat[3:]
-        e_n = np.asarray(setpoint, dtype=float) - eta
-        e = np.array([*ned_to_body(float(eta[2]), e_n[0], e_n[1]), e_n[2]])
-        de = np.zeros(3) if self._prev_error is None else (e - self._prev_error) / dt
+        x, z, th, u, w, q = np.asarray(x_hat, dtype=float).tolist()
+        sp = np.asarray(setpoint, dtype=float)
+        ref = sp.tolist()
+        e_x, e_z = ned_to_body(th, ref[0] - x, ref[1] - z)
+        e = (e_x, e_z, ref[2] - th)
+        prev = self._prev_error
+        de = (0.0, 0.0, 0.0) if prev is None else tuple((ei - pi) / dt for ei, pi in zip(e, prev, strict=True))
         self._prev_error = e
-        kp, kd, vmax, kv, tau_max = self.gains()
-        v_d = np.minimum(np.maximum(kp * e + kd * de, -vmax), vmax)   # np.clip's result, without its overhead
-        u_pd = kv * (v_d - nu)
-        ff = np.zeros(3) if tau_ff is None else p["WK_FF_GAIN"] * np.asarray(tau_ff, dtype=float)
-        dob = self.disturbance_feedback(d_hat)
-        u = u_pd + (ff + dob) / tau_max
+        self._refresh()
+        kp, kd, vmax, kv, tau_max = self._gain_floats
+        ff = (0.0, 0.0, 0.0) if tau_ff is None else tuple(
+            p["WK_FF_GAIN"] * t for t in np.asarray(tau_ff, dtype=float).tolist())
+        dob = self._disturbance_feedback(d_hat)
+        g: tuple[float, float, float] | None = None      # None: no hydrostatic term (adding 0 could flip a −0)
         if p["WK_G_COMP"]:
-            g_est = restoring_forces(self.vehicle, eta)
-            g_ref = restoring_forces(self.vehicle, np.asarray(setpoint, dtype=float))
-            u = u + np.array([g_est[0], g_est[1], g_ref[2]]) / tau_max
-        u_sat = np.minimum(np.maximum(u, -1.0), 1.0)
-        return ControlOutput(tau=tau_max * u_sat, tau_ff=ff, saturated=bool((u_sat != u).any()), tau_dob=dob)
+            g_est = restoring_forces(self.vehicle, x_hat[:3])
+            g = (float(g_est[0]), float(g_est[1]), self._restoring_moment(sp))
+        tau, saturated = [], False
+        for i, nu_i in enumerate((u, w, q)):
+            v_d = clip_float(kp[i] * e[i] + kd[i] * de[i], -vmax[i], vmax[i])
+            u_i = kv[i] * (v_d - nu_i) + (ff[i] + dob[i]) / tau_max[i]
+            if g is not None:
+                u_i = u_i + g[i] / tau_max[i]
+            u_sat = clip_float(u_i, -1.0, 1.0)
+            saturated = saturated or u_sat != u_i      # NaN counts as saturated, as (u_sat != u).any() has it
+            tau.append(tau_max[i] * u_sat)
+        return ControlOutput(tau=np.array(tau), tau_ff=np.array(ff), saturated=saturated, tau_dob=np.array(dob))
+
+    def _restoring_moment(self, setpoint: np.ndarray) -> float:
+        """The restoring moment (N m) at the setpoint pose [x, z, θ]; recomputed only when its depth or pitch moves."""
+        key = (float(setpoint[1]), float(setpoint[2]))
+        if key != self._g_ref_key:
+            self._g_ref = float(restoring_forces(self.vehicle, setpoint)[2])
+            self._g_ref_key = key
+        return self._g_ref

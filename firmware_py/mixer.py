@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import motor_lag_stages
 
 from .params import ParameterTable
 
@@ -45,6 +45,18 @@ class MixerOutput:
     tau_stages: np.ndarray     # (3, 3) expected thruster wrench at t, t + h/2, t + h
 
 
+class _Settings(NamedTuple):
+    """The mixer's parameters and what derives from them, for one ``ParameterTable.version``."""
+
+    f_max: float            # WK_THR_MAX (N)
+    f_min: float            # WK_THR_MIN (N)
+    comp: bool              # WK_MOT_COMP
+    lim: bool               # WK_MOT_LIM
+    keep: float             # e^{−h/t_m}: the fraction of the old thrust left after one period
+    gain: float             # 1 − e^{−h/t_m}
+    lag: tuple[float, ...]  # e^{−s/t_m} at the stage offsets s = 0, h/2, h
+
+
 class MotorMixer:
     def __init__(self, layout: ThrusterLayout, curve: T200Curve, params: ParameterTable, h: float):
         self.layout = layout
@@ -53,59 +65,113 @@ class MotorMixer:
         self.h = float(h)
         self.B = layout.allocation_matrix()
         self.B_pinv = np.linalg.pinv(self.B)
-        self._pinv_cols = tuple(self.B_pinv[:, axis].tolist() for axis in range(3))   # floats for allocate()
+        # B⁺'s columns as floats for allocate(): per axis, (thruster indices, coefficients), all of them
+        # and only the non-zero ones. An exact zero of B⁺ adds ±0.0 to a thrust, which is never −0.0
+        # (every thrust starts at +0.0), so leaving it out changes no bit for a finite demand.
+        cols = [self.B_pinv[:, axis].tolist() for axis in range(3)]
+        self._pinv_all = tuple((tuple(range(layout.n)), tuple(col)) for col in cols)
+        self._pinv_nonzero = tuple((tuple(i for i, b in enumerate(col) if b != 0.0),
+                                    tuple(b for b in col if b != 0.0)) for col in cols)
         self.f_hat = np.zeros(layout.n)
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
+        self._settings_key: tuple[int, int] | None = None
+        self._settings: _Settings | None = None
 
     def reset(self) -> None:
         self.f_hat = np.zeros(self.layout.n)
 
+    def settings(self) -> _Settings:
+        """The mixer's parameters, read from the table again only when it has changed (its ``version``)."""
+        p = self.params
+        key = (id(p), p.version)
+        if key != self._settings_key or self._settings is None:
+            t_m = p["WK_MOT_TC"]
+            keep = math.exp(-self.h / t_m)
+            # motor_lag_stages' own expression (numpy's exp, which may differ from math.exp in the last bit)
+            lag = np.exp(-np.asarray(self._stage_offsets, dtype=float) / t_m)
+            self._settings = _Settings(p["WK_THR_MAX"], p["WK_THR_MIN"], bool(p["WK_MOT_COMP"]),
+                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, tuple(lag.tolist()))
+            self._settings_key = key
+        return self._settings
+
     def output(self, pwm: np.ndarray, f_d: np.ndarray | None = None) -> MixerOutput:
         """Send these PWM values (µs); keeps the firmware's motor model in step."""
-        if f_d is None:
-            f_d = self.curve.thrust(pwm)
         f_sent = self.curve.thrust(pwm)
-        stages = motor_lag_stages(f_sent, self.f_hat, self.params["WK_MOT_TC"], self._stage_offsets)
+        if f_d is None:
+            f_d = f_sent.copy()
+        return self._output(pwm, f_d, f_sent.tolist())
+
+    def _output(self, pwm: np.ndarray, f_d: np.ndarray, f_sent: list[float]) -> MixerOutput:
+        """:meth:`output` with the sent thrusts (N) as floats: the motor model's three stages, the wrenches."""
+        # motor_lag_stages(f_sent, f_hat, t_m, offsets) element by element: f + (f̂ − f) e^{−s/t_m}
+        f_hat = self.f_hat.tolist()
+        stages = np.array([[fs + lag * (fh - fs) for fs, fh in zip(f_sent, f_hat, strict=True)]
+                           for lag in self.settings().lag])
         self.f_hat = stages[-1]
-        return MixerOutput(pwm, f_d, f_sent, stages @ self.B.T)
+        # The matrix product stays numpy's (BLAS sums in its own order)
+        return MixerOutput(pwm, f_d, np.array(f_sent), stages @ self.B.T)
 
     def mix(self, tau: np.ndarray) -> MixerOutput:
         """Allocate the body wrench τ = [X, Z, M] and return the PWM to send."""
-        p = self.params
-        f_d = self.allocate(tau, p["WK_THR_MAX"])
-        if p["WK_MOT_COMP"]:
-            a = math.exp(-self.h / p["WK_MOT_TC"])
-            f_cmd = (f_d - a * self.f_hat) / (1.0 - a)
-            if p["WK_MOT_LIM"]:
+        st = self.settings()
+        f_d = self._allocate(tau, st.f_max)
+        if st.comp:
+            keep, gain = st.keep, st.gain
+            f_cmd = [(fd - keep * fh) / gain for fd, fh in zip(f_d, self.f_hat.tolist(), strict=True)]
+            if st.lim:
                 # The compensated command re-allocated pitch first: its boost never clips pitch away
-                f_cmd = self.allocate(self.B @ f_cmd, p["WK_THR_MAX"])
+                f_cmd = self._allocate(self.B @ np.array(f_cmd), st.f_max)
         else:
             f_cmd = f_d
         # Below WK_THR_MIN a thruster is sent neutral: the curve is flat at the dead band's edge,
         # so a residual of a few mN would otherwise hold it at 1472/1528 µs indefinitely.
-        f_cmd = np.where(np.abs(f_cmd) < p["WK_THR_MIN"], 0.0, f_cmd)
-        pwm = np.rint(self.curve.pwm(f_cmd)).astype(np.int64)
-        return self.output(pwm, f_d)
+        f_min = st.f_min
+        f_cmd = [0.0 if abs(f) < f_min else f for f in f_cmd]
+        # round() is np.rint's half-to-even; the PWM is finite (pwm_values maps NaN to neutral)
+        pwm = np.array([round(v) for v in self.curve.pwm_values(f_cmd)], dtype=np.int64)
+        return self._output(pwm, np.array(f_d), self.curve.thrust_values(pwm.tolist()))
 
     _PRIORITY = (2, 1, 0)  # pitch, heave, surge
 
     def allocate(self, tau: np.ndarray, f_max: float) -> np.ndarray:
         """Thrusts (N) for the wrench τ, pitch first, every thruster within ±f_max."""
+        return np.array(self._allocate(tau, f_max))
+
+    def _allocate(self, tau: np.ndarray, f_max: float) -> list[float]:
+        """:meth:`allocate` as floats.
+
+        The same IEEE operations as the array form (B⁺ column times τ, the largest scale within
+        ±f_max, f + scale g), in floats: eight thrusters and three axes cost a tenth of the time.
+        """
         f = [0.0] * self.layout.n
-        # In floats (eight thrusters, three axes): the same IEEE operations as the array form, a tenth of the time
+        neg_max = -f_max
         for axis in self._PRIORITY:
             ta = float(tau[axis])
-            g = [b * ta for b in self._pinv_cols[axis]]
-            # Largest s in [0, 1] with |f + s g| ≤ f_max for every thruster
+            if ta == 0.0:
+                continue         # g = ±0.0 everywhere: no limit on the scale (1), f + 1·(±0.0) = f
+            # 0 · ±inf = NaN reaches every thruster: then all of them
+            idx, col = self._pinv_nonzero[axis] if math.isfinite(ta) else self._pinv_all[axis]
+            g = [b * ta for b in col]
+            # Largest s in [0, 1] with |f + s g| ≤ f_max for every thruster: min() and max() spelt
+            # out, the same comparisons (NaN included) without the calls
             room = math.inf
-            for fi, gi in zip(f, g, strict=True):
+            for i, gi in zip(idx, g, strict=True):
                 if gi > 0:
-                    room = min(room, (f_max - fi) / gi)
+                    r = (f_max - f[i]) / gi
                 elif gi < 0:
-                    room = min(room, (-f_max - fi) / gi)
-            scale = min(1.0, max(0.0, room))
-            f = [fi + scale * gi for fi, gi in zip(f, g, strict=True)]
-        return np.array(f)
+                    r = (neg_max - f[i]) / gi
+                else:
+                    continue
+                if r < room:
+                    room = r
+            if room >= 1.0:      # s = 1: 1 · g is g
+                for i, gi in zip(idx, g, strict=True):
+                    f[i] = f[i] + gi
+            else:
+                scale = room if room > 0.0 else 0.0
+                for i, gi in zip(idx, g, strict=True):
+                    f[i] = f[i] + scale * gi
+        return f
 
     def neutral(self) -> MixerOutput:
         """Every thruster at the neutral pulse (disarmed, failsafe)."""

@@ -40,6 +40,7 @@ import numpy as np
 from bridge.models import kernels
 from bridge.models.vehicle import VehicleParams, WaveComponents, body_flow, hydrodynamic_load_at, ned_to_body
 
+from .control import clip_float
 from .params import ParameterTable
 
 __all__ = ["SaturationPreview", "preview_excursions", "preview_gains"]
@@ -57,12 +58,14 @@ def preview_gains(params: ParameterTable) -> np.ndarray:
 
 def preview_excursions(vehicle: VehicleParams, params: ParameterTable, components: WaveComponents,
                        eta: np.ndarray, nu: np.ndarray, error0: np.ndarray, shift0: np.ndarray,
-                       candidates: np.ndarray, t: float, strips: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+                       candidates: np.ndarray, t: float, strips: tuple[np.ndarray, np.ndarray],
+                       gains: np.ndarray | None = None) -> np.ndarray:
     """The largest |offset from the mission target| (m) over the horizon, per candidate shift and axis.
 
     ``eta``, ``nu``: the estimated pose [x, z, θ] and velocity [u, w, q]; ``error0`` (2,) the
     body-frame offset [x, z] (m) of the vehicle from the mission target now; ``shift0`` (2,) the
-    target shift applied now; ``candidates`` (C, 2) constant shifts to try (m, body frame).
+    target shift applied now; ``candidates`` (C, 2) constant shifts to try (m, body frame);
+    ``gains``: :func:`preview_gains` of ``params`` when the caller keeps them (else read here).
     Returns (C, 2). Pure: the firmware's model, gains and limits from ``params``; the compiled
     kernel (:func:`~bridge.models.kernels.preview_worst_arr`) when enabled, else this reference.
     """
@@ -70,7 +73,8 @@ def preview_excursions(vehicle: VehicleParams, params: ParameterTable, component
     dt = p["WK_PRV_DT"]
     n = max(1, int(round(p["WK_PRV_HORIZON"] / dt)))
     flow = body_flow(components, eta, t + dt * np.arange(n), strips)
-    gains = preview_gains(p)
+    if gains is None:
+        gains = preview_gains(p)
     step = p["WK_PRV_RATE"] * dt
     cands = np.asarray(candidates, dtype=float)
     e0, v0, s0 = (np.asarray(a, dtype=float)[:2] for a in (error0, nu, shift0))
@@ -107,6 +111,8 @@ class SaturationPreview:
         self.params = params
         self.strips = strips
         self.h = h
+        self._tables_key: tuple[int, int] | None = None
+        self._tables_cache: tuple[np.ndarray, np.ndarray, np.ndarray] = (np.zeros((0, 2)),) * 3
         self.reset()
 
     def reset(self) -> None:
@@ -131,28 +137,47 @@ class SaturationPreview:
         elif t >= self._next_t:
             self._next_t = t + p["WK_PRV_PERIOD"]
             self._goal = self._choose(components, x_hat, setpoint, t)
+        # The slew in floats (np.clip on two elements, without its overhead; the bounds are never zero)
         step = p["WK_PRV_RATE"] * self.h
-        self.shift = self.shift + np.clip(self._goal - self.shift, -step, step)
-        return np.array([self.shift[0], self.shift[1], 0.0])
+        (sx, sz), (gx, gz) = self.shift.tolist(), self._goal.tolist()
+        sx, sz = sx + clip_float(gx - sx, -step, step), sz + clip_float(gz - sz, -step, step)
+        self.shift = np.array([sx, sz])
+        return np.array([sx, sz, 0.0])
 
     def _choose(self, components: WaveComponents, x_hat: np.ndarray, setpoint: np.ndarray, t: float) -> np.ndarray:
         """The candidate shift per axis with the smallest predicted largest excursion (0 unless it matters)."""
         p = self.params
-        s_max = np.array([p["WK_PRV_MAX_X"], p["WK_PRV_MAX_Z"]])
-        cands = np.linspace(-1.0, 1.0, N_CANDIDATES)[:, None] * s_max
+        cands, penalty, gains = self._tables()
         th = float(x_hat[2])
         error0 = np.array(ned_to_body(th, float(x_hat[0] - setpoint[0]), float(x_hat[1] - setpoint[1])))
         worst = preview_excursions(self.vehicle, p, components, np.asarray(x_hat[:3]), np.asarray(x_hat[3:]),
-                                   error0, self.shift, cands, t, self.strips)
-        if not np.all(np.isfinite(worst)):
+                                   error0, self.shift, cands, t, self.strips, gains)
+        if not np.isfinite(worst).all():
             return np.zeros(2)
+        # Per axis in floats (7 candidates, 2 axes): argmin(worst + 1e-3 |cands|), the first of equals
+        # (ties: the smaller shift); then the hysteresis. Once shifted, hold on until the unshifted
+        # prediction falls below half the threshold: the model under-predicts a saturated excursion (it
+        # holds pitch and the pose's flow), and releasing as soon as the pre-positioned vehicle looks
+        # safe would drop the shift just before the group arrives.
+        w, c, pen, g_prev = worst.tolist(), cands.tolist(), penalty.tolist(), self._goal.tolist()
         zero = N_CANDIDATES // 2
-        best = np.argmin(worst + 1e-3 * np.abs(cands), axis=0)   # ties: the smaller shift
-        goal = cands[best, [0, 1]]
-        # Hysteresis: once shifted, hold on until the unshifted prediction falls below half the threshold.
-        # The model under-predicts a saturated excursion (it holds pitch and the pose's flow), and
-        # releasing as soon as the pre-positioned vehicle looks safe would drop the shift just before
-        # the group arrives.
-        thr = np.where(self._goal != 0.0, 0.5, 1.0) * p["WK_PRV_THR"]
-        keep = (worst[zero] > thr) & (worst[best, [0, 1]] < worst[zero] - 0.02)
-        return np.where(keep, goal, 0.0)
+        goal = []
+        for a in (0, 1):
+            score = [w[k][a] + pen[k][a] for k in range(N_CANDIDATES)]
+            best = min(range(N_CANDIDATES), key=score.__getitem__)
+            thr = (0.5 if g_prev[a] != 0.0 else 1.0) * p["WK_PRV_THR"]
+            keep = w[zero][a] > thr and w[best][a] < w[zero][a] - 0.02
+            goal.append(c[best][a] if keep else 0.0)
+        return np.array(goal)
+
+    def _tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The candidate shifts (C, 2) m, their tie-break penalty 1e-3 |s| and :func:`preview_gains`,
+        computed again only when the parameter table has changed (its ``version``)."""
+        key = (id(self.params), self.params.version)
+        if key != self._tables_key:
+            p = self.params
+            s_max = np.array([p["WK_PRV_MAX_X"], p["WK_PRV_MAX_Z"]])
+            cands = np.linspace(-1.0, 1.0, N_CANDIDATES)[:, None] * s_max
+            self._tables_cache = (cands, 1e-3 * np.abs(cands), preview_gains(p))
+            self._tables_key = key
+        return self._tables_cache

@@ -171,6 +171,32 @@ def test_motor_lag_compensation_reaches_the_demand_in_one_period(thrusters):
     assert np.all((out.pwm >= 1100) & (out.pwm <= 1900)) and out.pwm.dtype.kind == "i"
 
 
+def test_allocation_is_the_array_form_to_the_last_bit(thrusters):
+    """MotorMixer.allocate (floats, skipping B⁺'s exact zeros) against the array form it replaced, bit for bit,
+    non-finite and signed-zero demands included."""
+    layout, curve = thrusters
+    mixer = MotorMixer(layout, curve, load_params(), 0.05)
+
+    def array_form(tau: np.ndarray, f_max: float) -> np.ndarray:
+        f = np.zeros(layout.n)
+        for axis in (2, 1, 0):
+            g = mixer.B_pinv[:, axis] * tau[axis]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                room = np.where(g > 0, (f_max - f) / g, np.where(g < 0, (-f_max - f) / g, np.inf))
+            room = [r for r in room.tolist() if r == r]         # min() over the thrusters that bound s (NaN never does)
+            f = f + np.clip(min([np.inf, *room]), 0.0, 1.0) * g
+        return f
+
+    rng = np.random.default_rng(11)
+    for k in range(3000):
+        tau = rng.normal(0.0, float(rng.choice([1.0, 100.0, 1e5])), 3)
+        if k % 4 == 0:
+            tau[rng.integers(3)] = rng.choice([0.0, -0.0, np.inf, -np.inf, np.nan, 1e308])
+        with np.errstate(invalid="ignore", over="ignore"):
+            ref = array_form(tau, 35.0)
+        assert np.array_equal(mixer.allocate(tau, 35.0).view(np.int64), ref.view(np.int64)), tau
+
+
 def test_neutral_output_is_1500(thrusters):
     layout, curve = thrusters
     out = MotorMixer(layout, curve, load_params(), 0.05).neutral()

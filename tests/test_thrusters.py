@@ -135,3 +135,32 @@ def test_pchip_is_scipys_to_the_last_bit():
         q = np.concatenate([x, rng.uniform(x[0] - 1.0, x[-1] + 1.0, 2000)])
         assert np.array_equal(ref.c, ours.c)
         assert np.array_equal(ref(q), ours(q))
+        assert np.array_equal(ours.values(q.tolist()), ours(q))
+
+
+def _bits(a) -> np.ndarray:
+    return np.asarray(a, dtype=float).view(np.int64)
+
+
+def test_float_paths_are_the_array_paths_to_the_last_bit(curve):
+    """thrust_values/pwm_values (and thrust/pwm on a few values) give the vectorised results bit for bit:
+    knots, their neighbouring floats, the dead band, the limits, signed zeros and NaN included."""
+    rng = np.random.default_rng(5)
+    pwm = np.concatenate([rng.uniform(1000.0, 2000.0, 20000), np.arange(1000.0, 2001.0), curve.pwm_samples,
+                          np.nextafter(curve.pwm_samples, 0.0), np.nextafter(curve.pwm_samples, 3000.0),
+                          [np.inf, -np.inf, 0.0, -0.0, np.nan]])
+    ref = curve.thrust(pwm.reshape(1, -1))[0]                   # 2-D: the array path
+    assert np.array_equal(_bits(curve.thrust_values(pwm.tolist())), _bits(ref))
+    assert np.array_equal(_bits(curve.thrust_values(pwm.tolist())), _bits(ref))         # again, from the memo
+    whole = np.trunc(pwm[np.isfinite(pwm)])
+    assert np.array_equal(_bits(curve.thrust_values(whole.astype(int).tolist())),        # whole µs as ints
+                          _bits(curve.thrust(whole.reshape(1, -1))[0]))
+    assert np.array_equal(_bits(curve.thrust(pwm[-8:])), _bits(ref[-8:]))
+    tables = np.concatenate([curve._fwd_f, curve._rev_f])
+    f = np.concatenate([rng.uniform(-45.0, 55.0, 20000), rng.uniform(-1e-4, 1e-4, 5000), tables,
+                        np.nextafter(tables, 100.0), np.nextafter(tables, -100.0),
+                        [np.inf, -np.inf, 0.0, -0.0, np.nan, 5e-324, -5e-324, curve.thrust_min, curve.thrust_max]])
+    ref = curve.pwm(f.reshape(1, -1))[0]
+    assert np.array_equal(_bits(curve.pwm_values(f.tolist())), _bits(ref))
+    assert np.array_equal(_bits(curve.pwm(f[-9:])), _bits(ref[-9:]))
+    assert curve.pwm(0.0) == curve.pwm_neutral and curve.thrust(1500.0) == 0.0

@@ -11,6 +11,9 @@ checks that against SciPy.
 """
 from __future__ import annotations
 
+from bisect import bisect_right
+from collections.abc import Iterable
+
 import numpy as np
 
 __all__ = ["Pchip"]
@@ -28,6 +31,9 @@ def _edge_slope(h0: float, h1: float, m0: float, m1: float) -> float:
 
 class Pchip:
     """The PCHIP interpolant through (x, y): x strictly increasing (1-D), y of the same length."""
+
+    _x_list: list[float]                  # x, and the rows of c, as Python floats (values())
+    _c_lists: tuple[list[float], ...]
 
     def __init__(self, x, y):
         x = np.asarray(x, dtype=float)
@@ -51,6 +57,9 @@ class Pchip:
         t = (dk[:-1] + dk[1:] - 2 * slope) / hk
         self.x = x
         self.c = np.stack((t / hk, (slope - dk[:-1]) / hk - t, dk[:-1], y[:-1]))
+        # The same table as Python floats, for values(): a handful of points costs a tenth of __call__
+        self._x_list = x.tolist()
+        self._c_lists = tuple(row.tolist() for row in self.c)
 
     def __call__(self, xq) -> np.ndarray:
         """The interpolant at ``xq`` (any shape; outside [x₀, x_n] the end pieces extend)."""
@@ -60,3 +69,21 @@ class Pchip:
         c = self.c[:, i]
         z = s * s
         return c[3] + c[2] * s + c[1] * z + c[0] * (z * s)
+
+    def values(self, xq: Iterable[float]) -> list[float]:
+        """The interpolant at each of a few points, as floats: :meth:`__call__`'s result to the last bit.
+
+        The same piece (``bisect_right`` is ``searchsorted(side="right")``, NaN included) and the
+        same IEEE operations in the same order, element by element, without numpy's per-call
+        overhead (~1 µs per array operation against ~0.05 µs per float one).
+        """
+        x, (c0, c1, c2, c3) = self._x_list, self._c_lists
+        last = len(x) - 2
+        out = []
+        for xi in xq:
+            i = bisect_right(x, xi) - 1
+            i = 0 if i < 0 else (last if i > last else i)
+            s = xi - x[i]
+            z = s * s
+            out.append(c3[i] + c2[i] * s + c1[i] * z + c0[i] * (z * s))
+        return out

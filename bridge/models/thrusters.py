@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,13 @@ NEUTRAL_PWM_US = 1500
 
 WRENCH_AXES = ("X", "Y", "Z", "K", "M", "N")
 """Rows of the 6-DoF wrench matrix: forces along body x, y, z; moments about x, y, z."""
+
+
+_FEW = 16
+"""Up to this many values (one vehicle's thrusters), thrust() and pwm() work in Python floats."""
+
+_MEMO = 4096
+"""thrust_values() keeps the thrust of this many distinct PWM values (the 801 whole µs of 1100–1900 fit)."""
 
 
 class T200Curve:
@@ -58,20 +66,76 @@ class T200Curve:
         self._fwd_pwm = np.linspace(hi, pwm_max, int(round((pwm_max - hi) / 0.05)) + 1)
         self._rev_f = self._fwd(self._rev_pwm)
         self._fwd_f = self._fwd(self._fwd_pwm)
+        # An integer neutral would make pwm()'s output integer (np.full's dtype), which pwm_values()
+        # does not reproduce: it then defers to pwm()
+        self._float_neutral = np.asarray(pwm_neutral).dtype.kind == "f"
+        self._thrust_memo: dict[float, float] = {}
 
     def thrust(self, pwm) -> np.ndarray:
         """Thrust (N, positive along the thruster's direction) for PWM (µs), clipped to 1100–1900 µs."""
-        p = np.minimum(np.maximum(np.asarray(pwm, dtype=float), self.pwm_min), self.pwm_max)   # np.clip, cheaper
+        p = np.asarray(pwm, dtype=float)
+        if p.ndim == 1 and p.size <= _FEW:
+            return np.array(self.thrust_values(p.tolist()))
+        p = np.minimum(np.maximum(p, self.pwm_min), self.pwm_max)   # np.clip, cheaper
         return self._fwd(p)
+
+    def thrust_values(self, pwm: Iterable[float]) -> list[float]:
+        """:meth:`thrust` of a few PWM values (µs), as floats (N): the same bits, a fraction of the time.
+
+        ESCs take whole microseconds, so the same few hundred pulses recur: each value's thrust is
+        kept (up to ``_MEMO`` of them) and looked up the next time.
+        """
+        memo, lo, hi = self._thrust_memo, self.pwm_min, self.pwm_max
+        out = []
+        for p in pwm:
+            f = memo.get(p)
+            if f is None:
+                p = float(p)
+                # np.minimum(np.maximum(p, lo), hi): NaN passes through as numpy's does
+                f = self._fwd.values((lo if p < lo else (hi if p > hi else p),))[0]
+                if p == p and len(memo) < _MEMO:
+                    memo[p] = f
+            out.append(f)
+        return out
 
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
-        f = np.minimum(np.maximum(np.asarray(thrust, dtype=float), self.thrust_min), self.thrust_max)
+        f = np.asarray(thrust, dtype=float)
+        if f.ndim == 1 and f.size <= _FEW and self._float_neutral:
+            return np.array(self.pwm_values(f.tolist()))
+        f = np.minimum(np.maximum(f, self.thrust_min), self.thrust_max)
         out = np.full(f.shape, self.pwm_neutral)
         pos, neg = f > 0.0, f < 0.0
         out[pos] = np.interp(f[pos], self._fwd_f, self._fwd_pwm)
         out[neg] = np.interp(f[neg], self._rev_f, self._rev_pwm)
         return out if out.ndim else float(out)  # type: ignore[return-value]  # a scalar in, a scalar out
+
+    def pwm_values(self, thrust: Iterable[float]) -> list[float]:
+        """:meth:`pwm` of a few thrusts (N), as floats (µs): the same bits, a fraction of the time.
+
+        The clip and the sign test in floats, then one ``np.interp`` per branch on the thrusts that
+        take it (numpy's own loop: its binary search over the contiguous table stays in cache,
+        where a bisect over the table as Python floats would not).
+        """
+        values = [float(v) for v in thrust]
+        if not self._float_neutral:
+            return [float(v) for v in np.atleast_1d(self.pwm(np.asarray(values, dtype=float)))]
+        lo, hi = self.thrust_min, self.thrust_max
+        out = [float(self.pwm_neutral)] * len(values)   # zero, and NaN (neither > 0 nor < 0), as pwm()'s masks
+        pos: list[int] = []
+        neg: list[int] = []
+        for i, f in enumerate(values):
+            f = lo if f < lo else (hi if f > hi else f)     # np.minimum(np.maximum(f, lo), hi): NaN passes
+            values[i] = f
+            if f > 0.0:
+                pos.append(i)
+            elif f < 0.0:
+                neg.append(i)
+        for idx, xp, fp in ((pos, self._fwd_f, self._fwd_pwm), (neg, self._rev_f, self._rev_pwm)):
+            if idx:
+                for i, v in zip(idx, np.interp([values[i] for i in idx], xp, fp).tolist(), strict=True):
+                    out[i] = v
+        return out
 
     @classmethod
     def from_config(cls, cfg: dict) -> T200Curve:
