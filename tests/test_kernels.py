@@ -98,6 +98,26 @@ def test_wave_load_matches_python(monkeypatch, sea, vehicle):
     close(fast, ref)
 
 
+def test_allocation_matches_python_bit_for_bit(monkeypatch):
+    """The mixer's allocation kernel is its float reference's operations one for one: equal bits, non-finite
+    and signed-zero demands included."""
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.schemas import load_vehicle_config
+    from firmware_py.mixer import MotorMixer
+    from firmware_py.params import load_params
+
+    cfg = load_vehicle_config("bluerov2_heavy")["thrusters"]
+    mixer = MotorMixer(ThrusterLayout.from_config(cfg), T200Curve.from_config(cfg), load_params(), 0.05)
+    rng = np.random.default_rng(17)
+    for k in range(2000):
+        tau = rng.normal(0.0, float(rng.choice([1.0, 100.0, 1e5])), 3)
+        if k % 4 == 0:
+            tau[rng.integers(3)] = rng.choice([0.0, -0.0, np.inf, -np.inf, np.nan, 1e308])
+        f_max = float(rng.choice([35.0, 1.0, 60.0]))
+        fast, ref = both(monkeypatch, lambda t=tau, m=f_max: mixer.allocate(t, m))
+        assert np.array_equal(fast.view(np.int64), ref.view(np.int64)), tau
+
+
 @pytest.mark.processes
 def test_a_mission_on_both_paths_agrees_to_1e9(monkeypatch):
     """Summation order moves last bits (the kernels sum per component, numpy's BLAS in blocks); through a

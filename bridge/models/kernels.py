@@ -7,7 +7,9 @@ estimator's finite-difference Jacobian (:func:`jacobian_arr`) and the
 saturation preview's simulation (:func:`preview_worst_arr`) are written
 here once, in loops over plain float arrays, in the same arithmetic order as
 the reference code in :mod:`bridge.models.waves` and
-:mod:`bridge.models.vehicle` (tests assert agreement to 1e-12).
+:mod:`bridge.models.vehicle` (tests assert agreement to 1e-12). The motor
+mixer's allocation (:func:`allocate_arr`) is its reference's operations one
+for one: the same bits.
 
 ``WAVEKEEP_NUMBA=0`` in the environment (read at import) selects the
 reference numpy/Python path everywhere; so does a missing numba. The
@@ -28,8 +30,8 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "preview_worst_arr", "rk4_arr",
-           "state_rates_arr", "warm_up"]
+__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "hydro_load", "jacobian_arr", "preview_worst_arr",
+           "rk4_arr", "state_rates_arr", "warm_up"]
 
 
 def _wanted() -> bool:
@@ -240,6 +242,36 @@ def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt,
     return worst
 
 
+@njit(cache=True)
+def allocate_arr(pinv, tau, f_max):  # pragma: no cover - compiled
+    """:meth:`~firmware_py.mixer.MotorMixer.allocate`: thrusts (n,) N for τ = [X, Z, M], pitch first, within ±f_max.
+
+    ``pinv`` (n, 3) is B⁺. Per axis (pitch, heave, surge) g = B⁺[:, axis] τ[axis] and the largest
+    s in [0, 1] with |f + s g| ≤ f_max; f += s g. The reference's operations one for one, every
+    thruster included (its skipped exact zeros add nothing): the same bits.
+    """
+    n = pinv.shape[0]
+    f = np.zeros(n)
+    for k in range(3):
+        axis = 2 - k
+        ta = tau[axis]
+        room = math.inf
+        for i in range(n):
+            gi = pinv[i, axis] * ta
+            if gi > 0:
+                r = (f_max - f[i]) / gi
+            elif gi < 0:
+                r = (-f_max - f[i]) / gi
+            else:
+                continue
+            if r < room:
+                room = r
+        scale = 1.0 if room >= 1.0 else (room if room > 0.0 else 0.0)
+        for i in range(n):
+            f[i] = f[i] + scale * (pinv[i, axis] * ta)
+    return f
+
+
 _warm = False
 
 
@@ -266,3 +298,4 @@ def warm_up() -> None:
         jacobian_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
     z2, g = np.zeros(2), np.ones((6, 2))
     preview_worst_arr(pv, g, z1, one, z3, z3, z3, z3, np.zeros((1, 2)), z2, z2, z2, 0.1, 0.1)
+    allocate_arr(np.ones((8, 3)), np.zeros(3), 1.0)
