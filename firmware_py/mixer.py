@@ -102,15 +102,17 @@ class MotorMixer:
             f_d = f_sent.copy()
         return self._output(pwm, f_d, f_sent.tolist())
 
-    def _output(self, pwm: np.ndarray, f_d: np.ndarray, f_sent: list[float]) -> MixerOutput:
-        """:meth:`output` with the sent thrusts (N) as floats: the motor model's three stages, the wrenches."""
+    def _output(self, pwm: np.ndarray, f_d: np.ndarray, f_sent: list[float],
+                f_sent_arr: np.ndarray | None = None) -> MixerOutput:
+        """:meth:`output` with the sent thrusts (N) as floats (and as an array when there is one):
+        the motor model's three stages, the wrenches."""
         # motor_lag_stages(f_sent, f_hat, t_m, offsets) element by element: f + (f̂ − f) e^{−s/t_m}
         f_hat = self.f_hat.tolist()
         stages = np.array([[fs + lag * (fh - fs) for fs, fh in zip(f_sent, f_hat, strict=True)]
                            for lag in self.settings().lag])
         self.f_hat = stages[-1]
         # The matrix product stays numpy's (BLAS sums in its own order)
-        return MixerOutput(pwm, f_d, np.array(f_sent), stages @ self.B.T)
+        return MixerOutput(pwm, f_d, np.array(f_sent) if f_sent_arr is None else f_sent_arr, stages @ self.B.T)
 
     def mix(self, tau: np.ndarray) -> MixerOutput:
         """Allocate the body wrench τ = [X, Z, M] and return the PWM to send."""
@@ -127,10 +129,8 @@ class MotorMixer:
         # Below WK_THR_MIN a thruster is sent neutral: the curve is flat at the dead band's edge,
         # so a residual of a few mN would otherwise hold it at 1472/1528 µs indefinitely.
         f_min = st.f_min
-        f_cmd = [0.0 if abs(f) < f_min else f for f in f_cmd]
-        # round() is np.rint's half-to-even; the PWM is finite (pwm_values maps NaN to neutral)
-        pwm = np.array([round(v) for v in self.curve.pwm_values(f_cmd)], dtype=np.int64)
-        return self._output(pwm, np.array(f_d), self.curve.thrust_values(pwm.tolist()))
+        pwm, f_sent = self.curve.command([0.0 if abs(f) < f_min else f for f in f_cmd])
+        return self._output(pwm, np.array(f_d), f_sent.tolist(), f_sent)
 
     _PRIORITY = (2, 1, 0)  # pitch, heave, surge
 

@@ -118,6 +118,28 @@ def test_allocation_matches_python_bit_for_bit(monkeypatch):
         assert np.array_equal(fast.view(np.int64), ref.view(np.int64)), tau
 
 
+def test_t200_command_matches_python_bit_for_bit(monkeypatch):
+    """The T200 curve's whole-µs command, compiled, against its reference and the array path: equal PWM and bits
+    at the tables' knots and their neighbouring floats, zero, NaN, ±inf and beyond the limits."""
+    from bridge.models.thrusters import T200Curve
+    from bridge.schemas import load_vehicle_config
+
+    curve = T200Curve.from_config(load_vehicle_config("bluerov2_heavy")["thrusters"])
+    rng = np.random.default_rng(19)
+    tables = np.concatenate([curve._fwd_f, curve._rev_f])
+    f = np.concatenate([rng.uniform(-45.0, 55.0, 40000), rng.uniform(-1e-3, 1e-3, 8000), tables,
+                        np.nextafter(tables, 100.0), np.nextafter(tables, -100.0),
+                        [0.0, -0.0, np.nan, np.inf, -np.inf, curve.thrust_min, curve.thrust_max, 5e-324]])
+    for chunk in np.array_split(f, len(f) // 8):
+        (pwm, thrust), (pwm_ref, thrust_ref) = both(monkeypatch, lambda c=chunk: curve.command(c.tolist()))
+        assert pwm.dtype == pwm_ref.dtype == np.int64 and np.array_equal(pwm, pwm_ref), chunk
+        assert np.array_equal(thrust.view(np.int64), thrust_ref.view(np.int64)), chunk
+    pwm_array = np.rint(curve.pwm(f.reshape(1, -1))[0]).astype(np.int64)        # the array path, as mix() had it
+    pwm, thrust = curve.command(f.tolist())
+    assert np.array_equal(pwm, pwm_array)
+    assert np.array_equal(thrust.view(np.int64), curve.thrust(pwm_array.reshape(1, -1))[0].view(np.int64))
+
+
 @pytest.mark.processes
 def test_a_mission_on_both_paths_agrees_to_1e9(monkeypatch):
     """Summation order moves last bits (the kernels sum per component, numpy's BLAS in blocks); through a
