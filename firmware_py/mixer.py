@@ -30,6 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from bridge.models import kernels
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 
 from .params import ParameterTable
@@ -54,7 +55,7 @@ class _Settings(NamedTuple):
     lim: bool               # WK_MOT_LIM
     keep: float             # e^{−h/t_m}: the fraction of the old thrust left after one period
     gain: float             # 1 − e^{−h/t_m}
-    lag: tuple[float, ...]  # e^{−s/t_m} at the stage offsets s = 0, h/2, h
+    lag: np.ndarray         # (3, 1): e^{−s/t_m} at the stage offsets s = 0, h/2, h
 
 
 class MotorMixer:
@@ -64,7 +65,7 @@ class MotorMixer:
         self.params = params
         self.h = float(h)
         self.B = layout.allocation_matrix()
-        self.B_pinv = np.linalg.pinv(self.B)
+        self.B_pinv = np.ascontiguousarray(np.linalg.pinv(self.B))   # C order: the kernel's compiled layout
         # B⁺'s columns as floats for allocate(): per axis, (thruster indices, coefficients), all of them
         # and only the non-zero ones. An exact zero of B⁺ adds ±0.0 to a thrust, which is never −0.0
         # (every thrust starts at +0.0), so leaving it out changes no bit for a finite demand.
@@ -90,26 +91,21 @@ class MotorMixer:
             # motor_lag_stages' own expression (numpy's exp, which may differ from math.exp in the last bit)
             lag = np.exp(-np.asarray(self._stage_offsets, dtype=float) / t_m)
             self._settings = _Settings(p["WK_THR_MAX"], p["WK_THR_MIN"], bool(p["WK_MOT_COMP"]),
-                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, tuple(lag.tolist()))
+                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, lag[:, None])
             self._settings_key = key
         return self._settings
 
     def output(self, pwm: np.ndarray, f_d: np.ndarray | None = None) -> MixerOutput:
         """Send these PWM values (µs); keeps the firmware's motor model in step."""
         f_sent = self.curve.thrust(pwm)
-        if f_d is None:
-            f_d = f_sent.copy()
-        return self._output(pwm, f_d, f_sent.tolist())
+        return self._output(pwm, f_sent.copy() if f_d is None else f_d, f_sent)
 
-    def _output(self, pwm: np.ndarray, f_d: np.ndarray, f_sent: list[float]) -> MixerOutput:
-        """:meth:`output` with the sent thrusts (N) as floats: the motor model's three stages, the wrenches."""
-        # motor_lag_stages(f_sent, f_hat, t_m, offsets) element by element: f + (f̂ − f) e^{−s/t_m}
-        f_hat = self.f_hat.tolist()
-        stages = np.array([[fs + lag * (fh - fs) for fs, fh in zip(f_sent, f_hat, strict=True)]
-                           for lag in self.settings().lag])
+    def _output(self, pwm: np.ndarray, f_d: np.ndarray, f_sent: np.ndarray) -> MixerOutput:
+        """:meth:`output` with the sent thrusts (N) known: the motor model's three stages, the wrenches."""
+        # motor_lag_stages(f_sent, f̂, t_m, offsets): f + e^{−s/t_m} (f̂ − f), the lag factors kept as a column
+        stages = f_sent + self.settings().lag * (self.f_hat - f_sent)
         self.f_hat = stages[-1]
-        # The matrix product stays numpy's (BLAS sums in its own order)
-        return MixerOutput(pwm, f_d, np.array(f_sent), stages @ self.B.T)
+        return MixerOutput(pwm, f_d, f_sent, stages @ self.B.T)
 
     def mix(self, tau: np.ndarray) -> MixerOutput:
         """Allocate the body wrench τ = [X, Z, M] and return the PWM to send."""
@@ -126,10 +122,8 @@ class MotorMixer:
         # Below WK_THR_MIN a thruster is sent neutral: the curve is flat at the dead band's edge,
         # so a residual of a few mN would otherwise hold it at 1472/1528 µs indefinitely.
         f_min = st.f_min
-        f_cmd = [0.0 if abs(f) < f_min else f for f in f_cmd]
-        # round() is np.rint's half-to-even; the PWM is finite (pwm_values maps NaN to neutral)
-        pwm = np.array([round(v) for v in self.curve.pwm_values(f_cmd)], dtype=np.int64)
-        return self._output(pwm, np.array(f_d), self.curve.thrust_values(pwm.tolist()))
+        pwm, f_sent = self.curve.command([0.0 if abs(f) < f_min else f for f in f_cmd])
+        return self._output(pwm, np.array(f_d), f_sent)
 
     _PRIORITY = (2, 1, 0)  # pitch, heave, surge
 
@@ -141,8 +135,11 @@ class MotorMixer:
         """:meth:`allocate` as floats.
 
         The same IEEE operations as the array form (B⁺ column times τ, the largest scale within
-        ±f_max, f + scale g), in floats: eight thrusters and three axes cost a tenth of the time.
+        ±f_max, f + scale g), in floats: eight thrusters and three axes cost a tenth of the time;
+        compiled (:func:`~bridge.models.kernels.allocate_arr`, the same bits) a third of that again.
         """
+        if kernels.ENABLED:
+            return kernels.allocate_arr(self.B_pinv, np.ascontiguousarray(tau, dtype=float), float(f_max)).tolist()
         f = [0.0] * self.layout.n
         neg_max = -f_max
         for axis in self._PRIORITY:

@@ -98,6 +98,48 @@ def test_wave_load_matches_python(monkeypatch, sea, vehicle):
     close(fast, ref)
 
 
+def test_allocation_matches_python_bit_for_bit(monkeypatch):
+    """The mixer's allocation kernel is its float reference's operations one for one: equal bits, non-finite
+    and signed-zero demands included."""
+    from bridge.models.thrusters import T200Curve, ThrusterLayout
+    from bridge.schemas import load_vehicle_config
+    from firmware_py.mixer import MotorMixer
+    from firmware_py.params import load_params
+
+    cfg = load_vehicle_config("bluerov2_heavy")["thrusters"]
+    mixer = MotorMixer(ThrusterLayout.from_config(cfg), T200Curve.from_config(cfg), load_params(), 0.05)
+    rng = np.random.default_rng(17)
+    for k in range(2000):
+        tau = rng.normal(0.0, float(rng.choice([1.0, 100.0, 1e5])), 3)
+        if k % 4 == 0:
+            tau[rng.integers(3)] = rng.choice([0.0, -0.0, np.inf, -np.inf, np.nan, 1e308])
+        f_max = float(rng.choice([35.0, 1.0, 60.0]))
+        fast, ref = both(monkeypatch, lambda t=tau, m=f_max: mixer.allocate(t, m))
+        assert np.array_equal(fast.view(np.int64), ref.view(np.int64)), tau
+
+
+def test_t200_command_matches_python_bit_for_bit(monkeypatch):
+    """The T200 curve's whole-µs command, compiled, against its reference and the array path: equal PWM and bits
+    at the tables' knots and their neighbouring floats, zero, NaN, ±inf and beyond the limits."""
+    from bridge.models.thrusters import T200Curve
+    from bridge.schemas import load_vehicle_config
+
+    curve = T200Curve.from_config(load_vehicle_config("bluerov2_heavy")["thrusters"])
+    rng = np.random.default_rng(19)
+    tables = np.concatenate([curve._fwd_f, curve._rev_f])
+    f = np.concatenate([rng.uniform(-45.0, 55.0, 40000), rng.uniform(-1e-3, 1e-3, 8000), tables,
+                        np.nextafter(tables, 100.0), np.nextafter(tables, -100.0),
+                        [0.0, -0.0, np.nan, np.inf, -np.inf, curve.thrust_min, curve.thrust_max, 5e-324]])
+    for chunk in np.array_split(f, len(f) // 8):
+        (pwm, thrust), (pwm_ref, thrust_ref) = both(monkeypatch, lambda c=chunk: curve.command(c.tolist()))
+        assert pwm.dtype == pwm_ref.dtype == np.int64 and np.array_equal(pwm, pwm_ref), chunk
+        assert np.array_equal(thrust.view(np.int64), thrust_ref.view(np.int64)), chunk
+    pwm_array = np.rint(curve.pwm(f.reshape(1, -1))[0]).astype(np.int64)        # the array path, as mix() had it
+    pwm, thrust = curve.command(f.tolist())
+    assert np.array_equal(pwm, pwm_array)
+    assert np.array_equal(thrust.view(np.int64), curve.thrust(pwm_array.reshape(1, -1))[0].view(np.int64))
+
+
 @pytest.mark.processes
 def test_a_mission_on_both_paths_agrees_to_1e9(monkeypatch):
     """Summation order moves last bits (the kernels sum per component, numpy's BLAS in blocks); through a

@@ -7,7 +7,10 @@ estimator's finite-difference Jacobian (:func:`jacobian_arr`) and the
 saturation preview's simulation (:func:`preview_worst_arr`) are written
 here once, in loops over plain float arrays, in the same arithmetic order as
 the reference code in :mod:`bridge.models.waves` and
-:mod:`bridge.models.vehicle` (tests assert agreement to 1e-12).
+:mod:`bridge.models.vehicle` (tests assert agreement to 1e-12). The motor
+mixer's allocation (:func:`allocate_arr`) and the T200 curve's whole-µs
+command (:func:`t200_command_arr`) are their references' operations one
+for one: the same bits.
 
 ``WAVEKEEP_NUMBA=0`` in the environment (read at import) selects the
 reference numpy/Python path everywhere; so does a missing numba. The
@@ -28,8 +31,8 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "body_flow_arrays", "hydro_load", "jacobian_arr", "preview_worst_arr", "rk4_arr",
-           "state_rates_arr", "warm_up"]
+__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "hydro_load", "jacobian_arr", "preview_worst_arr",
+           "rk4_arr", "state_rates_arr", "t200_command_arr", "warm_up"]
 
 
 def _wanted() -> bool:
@@ -240,6 +243,94 @@ def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt,
     return worst
 
 
+@njit(cache=True)
+def allocate_arr(pinv, tau, f_max):  # pragma: no cover - compiled
+    """:meth:`~firmware_py.mixer.MotorMixer.allocate`: thrusts (n,) N for τ = [X, Z, M], pitch first, within ±f_max.
+
+    ``pinv`` (n, 3) is B⁺. Per axis (pitch, heave, surge) g = B⁺[:, axis] τ[axis] and the largest
+    s in [0, 1] with |f + s g| ≤ f_max; f += s g. The reference's operations one for one, every
+    thruster included (its skipped exact zeros add nothing): the same bits.
+    """
+    n = pinv.shape[0]
+    f = np.zeros(n)
+    for k in range(3):
+        axis = 2 - k
+        ta = tau[axis]
+        room = math.inf
+        for i in range(n):
+            gi = pinv[i, axis] * ta
+            if gi > 0:
+                r = (f_max - f[i]) / gi
+            elif gi < 0:
+                r = (-f_max - f[i]) / gi
+            else:
+                continue
+            if r < room:
+                room = r
+        scale = 1.0 if room >= 1.0 else (room if room > 0.0 else 0.0)
+        for i in range(n):
+            f[i] = f[i] + scale * (pinv[i, axis] * ta)
+    return f
+
+
+@njit(cache=True)
+def _interp_one(x, xp, fp):  # pragma: no cover - compiled
+    """``np.interp(x, xp, fp)`` for one finite x and strictly increasing xp: numpy's loop (``arr_interp``).
+
+    The piece j with xp[j] ≤ x < xp[j+1]; the end values beyond either end and at the last knot,
+    fp[j] on a knot, else (fp[j+1] − fp[j]) / (xp[j+1] − xp[j]) · (x − xp[j]) + fp[j].
+    """
+    n = xp.size
+    if x < xp[0]:
+        return fp[0]
+    if x >= xp[n - 1]:
+        return fp[n - 1]
+    lo, hi = 0, n - 1            # xp[lo] ≤ x < xp[hi]
+    while hi - lo > 1:
+        mid = (lo + hi) >> 1
+        if xp[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    if xp[lo] == x:
+        return fp[lo]
+    slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo])
+    return slope * (x - xp[lo]) + fp[lo]
+
+
+@njit(cache=True)
+def t200_command_arr(f, f_lo, f_hi, neutral, rev_f, rev_pwm, fwd_f, fwd_pwm, p_lo, p_hi, knots, coef):
+    """:meth:`~bridge.models.thrusters.T200Curve.command`: whole-µs PWM (int64) for thrusts f (N), and their thrust.
+
+    Inverse curve: f clipped to [f_lo, f_hi], interpolated in the (rev_f → rev_pwm) table below zero
+    and (fwd_f → fwd_pwm) above, ``neutral`` at zero and NaN, rounded half to even. Forward curve:
+    the PWM clipped to [p_lo, p_hi], the PCHIP piece (``knots``, ``coef`` highest power first) by
+    ``searchsorted(side="right") − 1`` and c₃ + c₂ s + c₁ s² + c₀ s³ in that order.
+    """
+    n = f.size
+    pwm = np.empty(n, np.int64)
+    thrust = np.empty(n)
+    last = knots.size - 2
+    for i in range(n):
+        x = f[i]
+        x = f_lo if x < f_lo else (f_hi if x > f_hi else x)
+        if x > 0.0:
+            p = _interp_one(x, fwd_f, fwd_pwm)
+        elif x < 0.0:
+            p = _interp_one(x, rev_f, rev_pwm)
+        else:
+            p = neutral
+        pwm[i] = np.int64(np.rint(p))
+        q = float(pwm[i])
+        q = p_lo if q < p_lo else (p_hi if q > p_hi else q)
+        j = np.searchsorted(knots, q, side="right") - 1
+        j = 0 if j < 0 else (last if j > last else j)
+        s = q - knots[j]
+        z = s * s
+        thrust[i] = coef[3, j] + coef[2, j] * s + coef[1, j] * z + coef[0, j] * (z * s)
+    return pwm, thrust
+
+
 _warm = False
 
 
@@ -266,3 +357,6 @@ def warm_up() -> None:
         jacobian_arr(pv, x, tau[0], has, z1, one, z1, z1, z1, z1)
     z2, g = np.zeros(2), np.ones((6, 2))
     preview_worst_arr(pv, g, z1, one, z3, z3, z3, z3, np.zeros((1, 2)), z2, z2, z2, 0.1, 0.1)
+    allocate_arr(np.ones((8, 3)), np.zeros(3), 1.0)
+    tab, knots = np.array([-1.0, 0.0]), np.array([0.0, 1.0, 2.0])
+    t200_command_arr(np.zeros(8), -1.0, 1.0, 1.5, tab, tab, tab, tab, 0.0, 2.0, knots, np.ones((4, 2)))

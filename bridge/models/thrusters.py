@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import kernels
 from .pchip import Pchip
 
 __all__ = ["KGF", "NEUTRAL_PWM_US", "WRENCH_AXES", "T200Curve", "ThrusterLayout", "power_per_dof"]
@@ -97,6 +98,21 @@ class T200Curve:
                     memo[p] = f
             out.append(f)
         return out
+
+    def command(self, thrust: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """The whole-µs PWM (int64, as an ESC takes them) for each thrust (N), and the thrust (N) it gives.
+
+        ``rint(pwm(f))`` and ``thrust`` of that, bit for bit; compiled
+        (:func:`~bridge.models.kernels.t200_command_arr`) when the kernels are on.
+        """
+        if kernels.ENABLED and self._float_neutral:
+            return kernels.t200_command_arr(np.array(thrust, dtype=float), self.thrust_min, self.thrust_max,
+                                            float(self.pwm_neutral), self._rev_f, self._rev_pwm, self._fwd_f,
+                                            self._fwd_pwm, float(self.pwm_min), float(self.pwm_max),
+                                            self._fwd.x, self._fwd.c)
+        # round() is np.rint's half-to-even; the PWM is finite (pwm_values maps NaN to neutral)
+        pwm = [round(v) for v in self.pwm_values(thrust)]
+        return np.array(pwm, dtype=np.int64), np.array(self.thrust_values(pwm))
 
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
