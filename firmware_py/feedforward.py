@@ -42,16 +42,20 @@ import numpy as np
 from bridge.models.vehicle import (
     BodyFlow,
     VehicleParams,
-    hydrodynamic_load_at,
     hydrodynamic_load_terms,
     restoring_terms,
 )
 
+from .control import clip_float
 from .inertial_velocity import InertialVelocity
 from .params import ParameterTable
 from .sensors import SensorFrame
 
 __all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward", "skill_weighted_flow"]
+
+Vec3 = tuple[float, float, float]
+"""Three per-axis floats [X (N), Z (N), M (N m)] (or [u, w, q]): the robust law's per-tick arithmetic runs on
+floats, which cost less than three-element arrays for the same IEEE operations (the same bits)."""
 
 FF_MODES = {0: "paper", 1: "robust", 2: "wave part at the estimated velocity"}
 """``WK_FF_MODE`` values and their names."""
@@ -97,8 +101,7 @@ def _own_damping(p: VehicleParams, u: float, w: float, q: float) -> tuple[float,
     return (p.X_u + p.X_uu * abs(u)) * u, (p.Z_w + p.Z_ww * abs(w)) * w, (p.M_q + p.M_qq * abs(q)) * q
 
 
-def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.ndarray, eta: np.ndarray,
-                   tau_thr: np.ndarray) -> np.ndarray:
+def _revealed_load(p: VehicleParams, nu: Vec3, nu_dot: np.ndarray, eta: np.ndarray, tau_thr: Vec3) -> Vec3:
     """The load a motion reveals, in the robust law's terms: paper Eq. 2 solved for F_h, plus D(ν) ν,
 
     d = M ν̇ + C_RB(ν) ν + g(η) − τ_thr + D(ν) ν   (N, N, N m; body frame).
@@ -112,8 +115,8 @@ def _revealed_load(p: VehicleParams, nu: tuple[float, float, float], nu_dot: np.
     g = restoring_terms(p, eta[1], eta[2])
     d = _own_damping(p, u, w, q)
     m_nu_dot = (p.M @ nu_dot).tolist()
-    tau = tau_thr.tolist()
-    return np.array([m_nu_dot[i] + c_rb[i] + g[i] - tau[i] + d[i] for i in range(3)])
+    return (m_nu_dot[0] + c_rb[0] + g[0] - tau_thr[0] + d[0], m_nu_dot[1] + c_rb[1] + g[1] - tau_thr[1] + d[1],
+            m_nu_dot[2] + c_rb[2] + g[2] - tau_thr[2] + d[2])
 
 
 def _correlation(cov: float, var_a: float, var_b: float) -> float:
@@ -124,11 +127,16 @@ def _correlation(cov: float, var_a: float, var_b: float) -> float:
     return min(max(r, -1.0), 1.0) if math.isfinite(r) else 1.0
 
 
-def _lowpass(prev: np.ndarray | None, new: np.ndarray, h: float, tc: float) -> np.ndarray:
+def _lowpass(prev: Vec3 | None, new: Vec3, h: float, tc: float) -> Vec3:
     """One step of a first-order low-pass filter (time constant tc s, step h s); tc = 0 passes through."""
     if prev is None or tc <= 0.0:
-        return new.copy()
-    return prev + (1.0 - math.exp(-h / tc)) * (new - prev)
+        return new
+    a = 1.0 - math.exp(-h / tc)
+    return prev[0] + a * (new[0] - prev[0]), prev[1] + a * (new[1] - prev[1]), prev[2] + a * (new[2] - prev[2])
+
+
+def _finite(v: Vec3) -> bool:
+    return math.isfinite(v[0]) and math.isfinite(v[1]) and math.isfinite(v[2])
 
 
 class WaveFeedForward:
@@ -150,18 +158,18 @@ class WaveFeedForward:
         self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
         self._inertial = InertialVelocity(h, params["WK_FF_SKILL_VTC"], vehicle.g)   # the skill's velocity
         self._axes_key: tuple[int, int] | None = None    # (table, version) the per-axis limits were read at
-        self._tau_max = np.ones(3)
-        self._ff_lim = np.ones(3)
+        self._tau_max: Vec3 = (1.0, 1.0, 1.0)
+        self._ff_lim: Vec3 = (1.0, 1.0, 1.0)
         self.reset()
 
     def reset(self) -> None:
         """Forget the filters and the monitor (FF off, or a new arming): weights back to 1."""
-        self._nu_f: np.ndarray | None = None
-        self._prev_nu: np.ndarray | None = None
-        self._obs_f: np.ndarray | None = None
-        self._pred_f: np.ndarray | None = None
-        self._skill_obs_f: np.ndarray | None = None    # the skill's loads, low-passed
-        self._skill_pred_f: np.ndarray | None = None
+        self._nu_f: Vec3 | None = None
+        self._prev_nu: list[float] | None = None
+        self._obs_f: Vec3 | None = None
+        self._pred_f: Vec3 | None = None
+        self._skill_obs_f: Vec3 | None = None    # the skill's loads, low-passed
+        self._skill_pred_f: Vec3 | None = None
         self._prev_gyro: float | None = None
         self.weight = np.ones(3)
         self.skill = np.ones(3)
@@ -169,30 +177,33 @@ class WaveFeedForward:
         self._moments = np.zeros((5, 3))   # windowed means of o, p and (co)variances oo, pp, op of the loads
         self._skill_age = 0.0              # s of loads in the window
 
-    def _axis_limits(self) -> tuple[np.ndarray, np.ndarray]:
+    def _axis_limits(self) -> tuple[Vec3, Vec3]:
         """τ_max and the FF's authority limit ``WK_FF_LIM_*``·τ_max (N, N, N m), read again only when a
         parameter has changed."""
         p = self.params
         key = (id(p), p.version)
         if key != self._axes_key:
-            self._tau_max = np.array(p.axes("WK_TAU_MAX"))
-            self._ff_lim = np.array(p.axes("WK_FF_LIM")) * self._tau_max
+            tau_max, lim = p.axes("WK_TAU_MAX"), p.axes("WK_FF_LIM")
+            self._tau_max = tau_max
+            self._ff_lim = (lim[0] * tau_max[0], lim[1] * tau_max[1], lim[2] * tau_max[2])
             self._axes_key = key
         return self._tau_max, self._ff_lim
 
     # ------------------------------------------------------------------ models
-    def _load(self, nu: np.ndarray, flow: BodyFlow, i: int, mode: int) -> np.ndarray:
+    def _load(self, nu: Vec3, flow: BodyFlow, i: int, mode: int) -> Vec3:
         """The predicted load (N, N, N m) at body velocity ν in ``flow`` at its instant i, per law ``mode``."""
-        u, w, q = nu.tolist()
+        u, w, q = nu
         p = self.vehicle
+        f_h = hydrodynamic_load_terms(p, u, w, q, flow, i)
+        # mode 2: the wave part, F_h(ν, flow) − F_h(ν, still); else F_h(ν, flow) + D(ν) ν: all but the
+        # vehicle's own still-water damping
+        d = hydrodynamic_load_terms(p, u, w, q, None) if mode == 2 else _own_damping(p, u, w, q)
         if mode == 2:
-            return hydrodynamic_load_at(p, u, w, q, flow, i) - hydrodynamic_load_at(p, u, w, q, None)
-        # F_h(ν, flow) + D(ν) ν: all but the vehicle's own still-water damping
-        f_h, d = hydrodynamic_load_terms(p, u, w, q, flow, i), _own_damping(p, u, w, q)
-        return np.array([f_h[0] + d[0], f_h[1] + d[1], f_h[2] + d[2]])
+            return f_h[0] - d[0], f_h[1] - d[1], f_h[2] - d[2]
+        return f_h[0] + d[0], f_h[1] + d[1], f_h[2] + d[2]
 
     @staticmethod
-    def _bounded(nu: np.ndarray, flow: BodyFlow) -> np.ndarray:
+    def _bounded(nu: Vec3, flow: BodyFlow) -> Vec3:
         """ν with u and w each clamped between 0 (holding station) and the water's mean velocity at the body.
 
         A vehicle is pushed by the waves, never faster than the water: bounding the estimate this
@@ -200,29 +211,26 @@ class WaveFeedForward:
         wave) from predicting relative flows beyond the paper law's, so the robust law's load
         lies between the station-holding load and none.
         """
-        out = np.array(nu, dtype=float)
-        for i, comp in ((0, flow.u[2]), (1, flow.w[2])):
-            v_p = float(np.dot(flow.wts, comp))
-            out[i] = min(max(out[i], min(0.0, v_p)), max(0.0, v_p))
-        return out
+        u_p, w_p = float(np.dot(flow.wts, flow.u[2])), float(np.dot(flow.wts, flow.w[2]))
+        return (min(max(nu[0], min(0.0, u_p)), max(0.0, u_p)), min(max(nu[1], min(0.0, w_p)), max(0.0, w_p)), nu[2])
 
-    def _observed_load(self, x_hat: np.ndarray, tau_thr: np.ndarray) -> np.ndarray | None:
+    def _observed_load(self, x_hat: np.ndarray, tau_thr: Vec3) -> Vec3 | None:
         """The load the estimate's motion reveals over the last period, in the terms of :meth:`_load` (mode 1).
 
         d = M ν̂̇ + C_RB(ν̂) ν̂ + g(η̂) − τ_thr + D(ν̂) ν̂ (Eq. 2 solved for F_h, plus D(ν̂) ν̂),
         ν̂̇ by differencing consecutive estimates and ν̂ their mean; ``tau_thr`` the mean thrust (N, N, N m).
         """
-        nu_now = np.asarray(x_hat[3:], dtype=float)
-        if self._prev_nu is None:
-            self._prev_nu = nu_now.copy()
+        now = x_hat[3:6].tolist()
+        prev, self._prev_nu = self._prev_nu, now
+        if prev is None:
             return None
-        u, w, q = 0.5 * (nu_now + self._prev_nu)
-        d = _revealed_load(self.vehicle, (u, w, q), (nu_now - self._prev_nu) / self.h, x_hat, tau_thr)
-        self._prev_nu = nu_now.copy()
-        return d
+        h = self.h
+        nu = (0.5 * (now[0] + prev[0]), 0.5 * (now[1] + prev[1]), 0.5 * (now[2] + prev[2]))
+        nu_dot = np.array([(now[0] - prev[0]) / h, (now[1] - prev[1]) / h, (now[2] - prev[2]) / h])
+        return _revealed_load(self.vehicle, nu, nu_dot, x_hat, tau_thr)
 
-    def _skill_loads(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray, frame: SensorFrame | None,
-                     uw: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+    def _skill_loads(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: Vec3, frame: SensorFrame | None,
+                     uw: np.ndarray | None) -> tuple[Vec3, Vec3] | None:
         """The observed and the predicted load for the skill, in the terms of :meth:`_load` (mode 1).
 
         As :meth:`_observed_load` and the monitor's prediction, but at a velocity the forecast has not
@@ -244,7 +252,7 @@ class WaveFeedForward:
         th, g = float(frame.pitch), p.g
         nu_dot = np.array([frame.acc_x - q * w - g * math.sin(th), frame.acc_z + q * u + g * math.cos(th),
                            (q - prev) / self.h])
-        return _revealed_load(p, (u, w, q), nu_dot, x_hat, tau_thr), self._load(np.array([u, w, q]), flow, 0, 1)
+        return _revealed_load(p, (u, w, q), nu_dot, x_hat, tau_thr), self._load((u, w, q), flow, 0, 1)
 
     # ------------------------------------------------------------------ the tick
     def update(self, flow: BodyFlow | None, x_hat: np.ndarray, tau_thr: np.ndarray | None = None,
@@ -263,26 +271,27 @@ class WaveFeedForward:
         if flow is None:
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
+        tau_e_hat: Vec3
         if mode == 0:
             # The paper's law: the vehicle holding station (ν = 0) at the end of the period
-            tau_e_hat = hydrodynamic_load_at(self.vehicle, 0.0, 0.0, 0.0, flow, 2)
+            tau_e_hat = hydrodynamic_load_terms(self.vehicle, 0.0, 0.0, 0.0, flow, 2)
         else:
-            nu_hat = np.asarray(x_hat[3:], dtype=float)
-            self._nu_f = _lowpass(self._nu_f, nu_hat, self.h, self.params["WK_FF_VEL_TC"])
-            tau_e_hat = self._load(self._bounded(self._nu_f, flow) if mode == 1 else self._nu_f, flow, 2, mode)
+            self._nu_f = nu_f = _lowpass(self._nu_f, tuple(x_hat[3:6].tolist()), self.h, self.params["WK_FF_VEL_TC"])
+            tau_e_hat = self._load(self._bounded(nu_f, flow) if mode == 1 else nu_f, flow, 2, mode)
             if mode == 1:
                 self._monitor(flow, x_hat, tau_thr, frame if measure_skill else None, uw)
-        if not np.isfinite(tau_e_hat).all():
+        if not _finite(tau_e_hat):
             self.faults += 1
             self.reset()
             return FeedForwardOutput(np.zeros(3), None, False, self.weight.copy())
-        tau_ff = -tau_e_hat
         self.skill_weight = self._skill_weight()
         weight = self.weight * self.skill_weight if not self.distrusted else np.zeros(3)
         if mode == 1:
-            lim = self._axis_limits()[1]
-            tau_ff = weight * np.minimum(np.maximum(tau_ff, -lim), lim)
-        return FeedForwardOutput(tau_e_hat, tau_ff, True, weight.copy(), self.skill.copy())
+            lim, wt = self._axis_limits()[1], weight.tolist()
+            tau_ff = np.array([wt[i] * clip_float(-tau_e_hat[i], -lim[i], lim[i]) for i in range(3)])
+        else:
+            tau_ff = -np.array(tau_e_hat)
+        return FeedForwardOutput(np.array(tau_e_hat), tau_ff, True, weight, self.skill.copy())
 
     def _monitor(self, flow: BodyFlow, x_hat: np.ndarray, tau_thr: np.ndarray | None,
                  frame: SensorFrame | None = None, uw: np.ndarray | None = None) -> None:
@@ -292,29 +301,33 @@ class WaveFeedForward:
         if thr <= 0.0 or tau_thr is None:
             self.weight = np.ones(3)
             return
-        observed = self._observed_load(x_hat, np.asarray(tau_thr, dtype=float))
-        if observed is None or not np.isfinite(observed).all():
+        tau = tuple(np.asarray(tau_thr, dtype=float).tolist())
+        observed = self._observed_load(x_hat, tau)
+        if observed is None or not _finite(observed):
             return
         # The prediction at the start of this period's end (stage 0 = now) and the estimate's velocity
-        predicted = self._load(np.asarray(x_hat[3:], dtype=float), flow, 0, 1)
-        tc = p["WK_FF_MON_TC"]
-        self._obs_f = _lowpass(self._obs_f, observed, self.h, tc)
-        self._pred_f = _lowpass(self._pred_f, predicted, self.h, tc)
+        predicted = self._load(tuple(x_hat[3:6].tolist()), flow, 0, 1)
+        tc, h = p["WK_FF_MON_TC"], self.h
+        self._obs_f = obs_f = _lowpass(self._obs_f, observed, h, tc)
+        self._pred_f = pred_f = _lowpass(self._pred_f, predicted, h, tc)
         if frame is not None:       # the skill is wanted (WK_FF_SKILL_TC > 0)
-            loads = self._skill_loads(flow, x_hat, np.asarray(tau_thr, dtype=float), frame, uw)
-            if loads is not None and np.isfinite(loads[0]).all() and np.isfinite(loads[1]).all():
-                self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], self.h, tc)
-                self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], self.h, tc)
+            loads = self._skill_loads(flow, x_hat, tau, frame, uw)
+            if loads is not None and _finite(loads[0]) and _finite(loads[1]):
+                self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], h, tc)
+                self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], h, tc)
                 self._update_skill(self._skill_obs_f, self._skill_pred_f)
-        disagreement = np.abs(self._obs_f - self._pred_f) / self._axis_limits()[0]
-        w_min = p["WK_FF_W_MIN"]
-        target = np.minimum(np.maximum(1.0 - (disagreement - thr) / thr, w_min), 1.0)
+        tau_max, w_min = self._axis_limits()[0], p["WK_FF_W_MIN"]
         # Fade within a few ticks, recover over WK_FF_MON_TC
-        rate = np.where(target < self.weight, 1.0 - math.exp(-self.h / 0.1), 1.0 - math.exp(-self.h / tc))
-        self.weight = self.weight + rate * (target - self.weight)
+        fade, recover = 1.0 - math.exp(-h / 0.1), 1.0 - math.exp(-h / tc)
+        weight = self.weight.tolist()
+        for i in range(3):
+            disagreement = abs(obs_f[i] - pred_f[i]) / tau_max[i]
+            target = clip_float(1.0 - (disagreement - thr) / thr, w_min, 1.0)
+            weight[i] = weight[i] + (fade if target < weight[i] else recover) * (target - weight[i])
+        self.weight = np.array(weight)
         self._update_trust()
 
-    def _update_skill(self, observed: np.ndarray, predicted: np.ndarray) -> None:
+    def _update_skill(self, observed: Vec3 | np.ndarray, predicted: Vec3 | np.ndarray) -> None:
         """The forecast's skill per axis: the correlation of the predicted with the observed load over an
         exponential window of ``WK_FF_SKILL_TC`` s (both loads low-passed over ``WK_FF_MON_TC``).
 
@@ -330,7 +343,7 @@ class WaveFeedForward:
         a = 1.0 - math.exp(-self.h / tc)
         b = 1.0 - a
         mo, mp, voo, vpp, vop = self._moments.tolist()     # per axis in floats: three short sums each
-        obs, pred = observed.tolist(), predicted.tolist()
+        obs, pred = list(observed), list(predicted)
         for k in range(3):
             d_o, d_p = obs[k] - mo[k], pred[k] - mp[k]
             mo[k] += a * d_o
@@ -351,7 +364,7 @@ class WaveFeedForward:
         lo, hi = self.params["WK_FF_SKILL_LO"], self.params["WK_FF_SKILL_HI"]
         if self.params["WK_FF_SKILL_TC"] <= 0.0 or hi <= lo:
             return np.ones(3)
-        return np.minimum(np.maximum((self.skill - lo) / (hi - lo), 0.0), 1.0)
+        return np.array([clip_float((r - lo) / (hi - lo), 0.0, 1.0) for r in self.skill.tolist()])
 
     def _update_trust(self) -> None:
         """Set the forecast aside while the monitor has faded some axis for most of ``WK_FF_TRUST_TC``.
