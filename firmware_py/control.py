@@ -30,6 +30,7 @@ import numpy as np
 
 from bridge.models.vehicle import VehicleParams, ned_to_body, restoring_forces
 
+from .floats import clip_float
 from .params import ParameterTable
 
 __all__ = ["ControlOutput", "StationKeepingController"]
@@ -45,15 +46,6 @@ class ControlOutput:
     tau_ff: np.ndarray     # the feed-forward part as applied (g_ff · τ_FF)
     saturated: bool        # some axis hit ±τ_max (logged per tick)
     tau_dob: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the DOB part as applied
-
-
-def clip_float(x: float, lo: float, hi: float) -> float:
-    """``np.clip(x, lo, hi)`` (array bounds) and ``np.minimum(np.maximum(x, lo), hi)`` for one float, to the bit.
-
-    numpy's comparisons spelt out: NaN passes through, and a tie (±0 against ∓0) takes the bound.
-    """
-    m = x if (x > lo or x != x) else lo
-    return m if (m < hi or m != m) else hi
 
 
 class StationKeepingController:

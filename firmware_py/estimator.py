@@ -39,8 +39,9 @@ import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step, state_rates_at
 
-from .estimator_support import Subset, Tuning, innovation_scales, ratio, selection_rows, sqrt
+from .estimator_support import Subset, Tuning, innovation_scales, selection_rows
 from .filterpy_ekf import ExtendedKalmanFilter
+from .floats import ratio, sqrt
 from .params import ParameterTable
 from .sensors import SensorFrame
 

@@ -1,11 +1,9 @@
 """The estimator's per-tick helpers (:mod:`firmware_py.estimator`): its parameters read once per table
-version, the fusion's constants per set of accepted channels, and scalar arithmetic with numpy's semantics.
+version, the fusion's constants per set of accepted channels, and the innovation-driven noise scales.
 
 The filter runs 20 times a second on vectors of 4–9 elements, where a numpy call costs more than the
-arithmetic it does; the gating and the noise adaptation therefore run on Python floats. IEEE scalar
-arithmetic gives the same bits as numpy's elementwise operations, but Python raises where numpy returns
-inf or NaN (a division by zero, an overflowing or a negative-argument power or root): the functions
-here return what numpy would.
+arithmetic it does; the gating and the noise adaptation therefore run on Python floats, with
+:mod:`firmware_py.floats` where Python's edge cases differ from numpy's.
 """
 from __future__ import annotations
 
@@ -14,9 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .floats import square_over
 from .params import ParameterTable
 
-__all__ = ["Subset", "Tuning", "innovation_scales", "ratio", "selection_rows", "sqrt", "square_over"]
+__all__ = ["Subset", "Tuning", "innovation_scales", "selection_rows"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,27 +130,3 @@ def innovation_scales(lam: list[float], blk: list[float], y: list[float], S: lis
             blk[:] = [0.0, 0.0, 0.0]
     # np.clip's arithmetic (max with the floor, then min with the cap; NaN stays NaN) on 4 scalars
     return [min(max(v, 1.0), tune.qi_max) for v in lam]
-
-
-def ratio(a: float, b: float) -> float:
-    """a / b in IEEE arithmetic, as numpy divides: ±inf or NaN (and numpy's warning) for b = 0 where Python
-    would raise."""
-    try:
-        return a / b
-    except ZeroDivisionError:
-        with np.errstate(invalid="ignore"):
-            return float(np.float64(a) / np.float64(b))
-
-
-def sqrt(v: float) -> float:
-    """√v as numpy computes it: NaN (not Python's ValueError) below zero."""
-    return math.sqrt(v) if v >= 0.0 else math.nan
-
-
-def square_over(a: float, b: float) -> float:
-    """a ** 2 / b as numpy's float64 scalars compute it (pow, then division; pow(a, 2) is not always a·a),
-    inf or NaN where Python would raise."""
-    try:
-        return a ** 2 / b
-    except (OverflowError, ZeroDivisionError):
-        return float(np.float64(a) ** 2 / np.float64(b))

@@ -46,7 +46,7 @@ from bridge.models.vehicle import (
     restoring_terms,
 )
 
-from .control import clip_float
+from .floats import clip_float, ratio, sqrt
 from .inertial_velocity import InertialVelocity
 from .params import ParameterTable
 from .sensors import SensorFrame
@@ -121,9 +121,7 @@ def _revealed_load(p: VehicleParams, nu: Vec3, nu_dot: np.ndarray, eta: np.ndarr
 
 def _correlation(cov: float, var_a: float, var_b: float) -> float:
     """cov / √(var_a var_b) clipped to [−1, 1]; 1 where it is undefined (no variance yet)."""
-    prod = var_a * var_b
-    den = math.sqrt(prod) if prod >= 0.0 else math.nan
-    r = cov / den if den != 0.0 else math.nan
+    r = ratio(cov, sqrt(var_a * var_b))
     return min(max(r, -1.0), 1.0) if math.isfinite(r) else 1.0
 
 

@@ -40,7 +40,7 @@ import numpy as np
 from bridge.models import kernels
 from bridge.models.vehicle import VehicleParams, WaveComponents, body_flow, hydrodynamic_load_at, ned_to_body
 
-from .control import clip_float
+from .floats import clip_float
 from .params import ParameterTable
 
 __all__ = ["SaturationPreview", "preview_excursions", "preview_gains"]
