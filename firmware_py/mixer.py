@@ -32,6 +32,7 @@ import numpy as np
 
 from bridge.models import kernels
 from bridge.models.thrusters import T200Curve, ThrusterLayout
+from bridge.models.vehicle import motor_lag_factors
 
 from .params import ParameterTable
 
@@ -88,10 +89,10 @@ class MotorMixer:
         if key != self._settings_key or self._settings is None:
             t_m = p["WK_MOT_TC"]
             keep = math.exp(-self.h / t_m)
-            # motor_lag_stages' own expression (numpy's exp, which may differ from math.exp in the last bit)
-            lag = np.exp(-np.asarray(self._stage_offsets, dtype=float) / t_m)
+            # motor_lag_stages' factors (numpy's exp, which may differ from math.exp in the last bit)
+            lag = motor_lag_factors(t_m, self._stage_offsets)
             self._settings = _Settings(p["WK_THR_MAX"], p["WK_THR_MIN"], bool(p["WK_MOT_COMP"]),
-                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, lag[:, None])
+                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, lag)
             self._settings_key = key
         return self._settings
 

@@ -25,7 +25,7 @@ from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
     hydrodynamic_load_terms,
-    motor_lag_stages,
+    motor_lag_factors,
     rk4_step,
     state_rates_at,
     strip_nodes,
@@ -72,6 +72,9 @@ class Plant:
         self.nu_dot = np.zeros(3)       # body acceleration at the end of the last step
         self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north)
         self.pressure_depth: float | None = None   # what a pressure sensor reads (m), with the sea's option
+        self._lag_key: float | None = None          # the dt the motor-lag factors below were computed for
+        self._lags: list[np.ndarray] = []          # per substep: e^{−s/t_m} at its stage times (3, 1)
+        self._lag_end = np.ones(1)                  # e^{−dt/t_m} (1, 1)
 
     @classmethod
     def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping",
@@ -132,12 +135,15 @@ class Plant:
         p = self.vehicle
         x = np.concatenate([s.eta, s.nu])
         t = s.t
+        lags, lag_end = self._motor_lags(dt, stage)
+        df = s.thrust - f_cmd
         for i in range(self.substeps):
-            tau_thr = motor_lag_stages(f_cmd, s.thrust, self.t_m, i * h + stage) @ self.B.T
+            # motor_lag_stages(f_cmd, f₀, t_m, i h + stage): f_cmd + e^{−s/t_m} (f₀ − f_cmd), factors kept
+            tau_thr = (f_cmd + lags[i] * df) @ self.B.T
             flow = body_flow(self.sea.components, x[:3], t + stage, self.strips, self.current_x)
             x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
-        f = motor_lag_stages(f_cmd, s.thrust, self.t_m, [dt])[0]
+        f = (f_cmd + lag_end * df)[0]
         self.state = PlantState(t, x[:3], x[3:], f)
         self.tau = self.B @ f
         u, w, q = x[3:].tolist()
@@ -146,6 +152,16 @@ class Plant:
         self.nu_dot = state_rates_at(p, x, self.tau, flow, 2)[3:]
         self._update_pressure()
         return self.state
+
+    def _motor_lags(self, dt: float, stage: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        """The motor-lag factors e^{−s/t_m} of :func:`motor_lag_stages` at each substep's stage times and at
+        dt, as columns; computed again only when dt changes (the plant's step is fixed in a mission)."""
+        if dt != self._lag_key:
+            h = dt / self.substeps
+            self._lags = [motor_lag_factors(self.t_m, i * h + stage) for i in range(self.substeps)]
+            self._lag_end = motor_lag_factors(self.t_m, [dt])
+            self._lag_key = dt
+        return self._lags, self._lag_end
 
     def power_per_dof(self) -> np.ndarray:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""

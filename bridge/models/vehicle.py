@@ -34,6 +34,7 @@ __all__ = [
     "damping_matrix",
     "hydrodynamic_load",
     "hydrodynamic_load_at",
+    "motor_lag_factors",
     "motor_lag_stages",
     "ned_to_body",
     "rates_jacobian",
@@ -404,8 +405,16 @@ def motor_lag_stages(f_cmd: np.ndarray, f0: np.ndarray, t_m: float, offsets) -> 
 
     ``offsets`` (S,) in s; returns (S, n) thrusts (N).
     """
-    lag = np.exp(-np.asarray(offsets, dtype=float) / t_m)
-    return f_cmd + np.outer(lag, f0 - f_cmd)
+    return f_cmd + motor_lag_factors(t_m, offsets) * (f0 - f_cmd)
+
+
+def motor_lag_factors(t_m: float, offsets) -> np.ndarray:
+    """e^{−s/t_m} at the time offsets s (S,), as a column (S, 1): the share of a thrust step still to come.
+
+    For callers that step at fixed offsets and keep them: :func:`motor_lag_stages` is
+    ``f_cmd + motor_lag_factors(t_m, offsets) * (f0 − f_cmd)``.
+    """
+    return np.exp(-np.asarray(offsets, dtype=float) / t_m)[:, None]
 
 
 def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:
