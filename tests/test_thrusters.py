@@ -164,3 +164,17 @@ def test_float_paths_are_the_array_paths_to_the_last_bit(curve):
     assert np.array_equal(_bits(curve.pwm_values(f.tolist())), _bits(ref))
     assert np.array_equal(_bits(curve.pwm(f[-9:])), _bits(ref[-9:]))
     assert curve.pwm(0.0) == curve.pwm_neutral and curve.thrust(1500.0) == 0.0
+
+
+def test_an_integer_neutral_gives_the_same_fractional_pwm(cfg):
+    """PWM limits and neutral given as integers (as NEUTRAL_PWM_US is) must not truncate pwm()'s µs."""
+    samples = (cfg["curve"]["pwm_us"], np.asarray(cfg["curve"]["thrust_kgf"]) * KGF)
+    as_int = T200Curve(*samples, pwm_min=1100, pwm_max=1900, pwm_neutral=1500)
+    as_float = T200Curve(*samples, pwm_min=1100.0, pwm_max=1900.0, pwm_neutral=1500.0)
+    thrust = np.array([-30.0, -7.3, 0.0, 3.3, 12.1, 40.0])
+    many = np.linspace(-40.0, 50.0, 101)
+    for f in (thrust, many):
+        got = as_int.pwm(f)
+        assert got.dtype == np.float64
+        assert np.array_equal(got, as_float.pwm(f))
+        assert np.any(got != np.round(got))     # fractional µs survive

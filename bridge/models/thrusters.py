@@ -56,7 +56,8 @@ class T200Curve:
         if zero.size != 2 or zero[1] != zero[0] + 1:
             raise ValueError("T200 curve needs exactly two zero-thrust samples bounding the dead band")
         self.pwm_samples, self.thrust_samples = pwm, f
-        self.pwm_min, self.pwm_max, self.pwm_neutral = pwm_min, pwm_max, pwm_neutral
+        # floats whatever the caller passed: an integer neutral made pwm()'s output integer (np.full's dtype)
+        self.pwm_min, self.pwm_max, self.pwm_neutral = float(pwm_min), float(pwm_max), float(pwm_neutral)
         self.deadband = (pwm[zero[0]], pwm[zero[1]])
         self._fwd = Pchip(pwm, f)   # SciPy's PchipInterpolator to the last bit, without importing SciPy
         self.thrust_min, self.thrust_max = float(self._fwd(pwm_min)), float(self._fwd(pwm_max))
@@ -67,9 +68,6 @@ class T200Curve:
         self._fwd_pwm = np.linspace(hi, pwm_max, int(round((pwm_max - hi) / 0.05)) + 1)
         self._rev_f = self._fwd(self._rev_pwm)
         self._fwd_f = self._fwd(self._fwd_pwm)
-        # An integer neutral would make pwm()'s output integer (np.full's dtype), which pwm_values()
-        # does not reproduce: it then defers to pwm()
-        self._float_neutral = np.asarray(pwm_neutral).dtype.kind == "f"
         self._thrust_memo: dict[float, float] = {}
 
     def thrust(self, pwm) -> np.ndarray:
@@ -105,10 +103,10 @@ class T200Curve:
         ``rint(pwm(f))`` and ``thrust`` of that, bit for bit; compiled
         (:func:`~bridge.models.kernels.t200_command_arr`) when the kernels are on.
         """
-        if kernels.ENABLED and self._float_neutral:
+        if kernels.ENABLED:
             return kernels.t200_command_arr(np.array(thrust, dtype=float), self.thrust_min, self.thrust_max,
-                                            float(self.pwm_neutral), self._rev_f, self._rev_pwm, self._fwd_f,
-                                            self._fwd_pwm, float(self.pwm_min), float(self.pwm_max),
+                                            self.pwm_neutral, self._rev_f, self._rev_pwm, self._fwd_f,
+                                            self._fwd_pwm, self.pwm_min, self.pwm_max,
                                             self._fwd.x, self._fwd.c)
         # round() is np.rint's half-to-even; the PWM is finite (pwm_values maps NaN to neutral)
         pwm = [round(v) for v in self.pwm_values(thrust)]
@@ -117,7 +115,7 @@ class T200Curve:
     def pwm(self, thrust) -> np.ndarray:
         """PWM (µs) that gives ``thrust`` (N); zero maps to neutral, out-of-range thrust saturates."""
         f = np.asarray(thrust, dtype=float)
-        if f.ndim == 1 and f.size <= _FEW and self._float_neutral:
+        if f.ndim == 1 and f.size <= _FEW:
             return np.array(self.pwm_values(f.tolist()))
         f = np.minimum(np.maximum(f, self.thrust_min), self.thrust_max)
         out = np.full(f.shape, self.pwm_neutral)
@@ -134,10 +132,8 @@ class T200Curve:
         where a bisect over the table as Python floats would not).
         """
         values = [float(v) for v in thrust]
-        if not self._float_neutral:
-            return [float(v) for v in np.atleast_1d(self.pwm(np.asarray(values, dtype=float)))]
         lo, hi = self.thrust_min, self.thrust_max
-        out = [float(self.pwm_neutral)] * len(values)   # zero, and NaN (neither > 0 nor < 0), as pwm()'s masks
+        out = [self.pwm_neutral] * len(values)   # zero, and NaN (neither > 0 nor < 0), as pwm()'s masks
         pos: list[int] = []
         neg: list[int] = []
         for i, f in enumerate(values):
