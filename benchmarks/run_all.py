@@ -1,11 +1,21 @@
 """Run every benchmark (``make bench``)."""
-from benchmarks import bench_campaign, bench_control, bench_links, bench_plant, bench_sim, bench_speed, bench_timing
+from benchmarks import (
+    bench_campaign,
+    bench_control,
+    bench_ekf_step,
+    bench_links,
+    bench_plant,
+    bench_sim,
+    bench_speed,
+    bench_timing,
+)
 
 if __name__ == "__main__":
     bench_plant.main()
     bench_control.main()
     bench_links.main()
     bench_timing.main()
+    bench_ekf_step.main([])
     bench_campaign.main()
     bench_speed.main([])
     bench_sim.main(["--repeat", "1"])
