@@ -166,6 +166,21 @@ def encode_state(msg: dict[str, Any]) -> bytes:
     return b"\n" + out + b"\n"
 
 
+def _finite_floats(obj: dict[str, Any], key: str, n: int) -> list[float] | np.ndarray:
+    """``obj[key]`` as ``n`` finite numbers; ValueError (or TypeError) if it is not that.
+
+    What a JSON parser makes of a vector is a list of floats: that case is checked on the floats
+    (numpy's per-call cost was most of a reply's decoding); anything else (ints, strings numpy would
+    convert, nested lists) goes through the array, as before.
+    """
+    v = obj[key]
+    if type(v) is list and len(v) == n and all(type(x) is float for x in v):
+        if not all(map(math.isfinite, v)):
+            raise ValueError(f"{key}: expected {n} finite numbers")
+        return v
+    return _vec(obj, key, n)
+
+
 def _vec(obj: dict[str, Any], key: str, n: int) -> np.ndarray:
     v = np.array(obj[key], dtype=float)
     if v.shape != (n,) or not np.isfinite(v).all():
@@ -195,7 +210,7 @@ def decode_state(line: bytes | str) -> StateReply:
         if not math.isfinite(pressure_depth):
             raise ValueError("wavekeep.pressure_depth is not finite")
     if isinstance(wk, dict) and "eta" in wk and "nu" in wk:
-        eta, nu = _vec(wk, "eta", 3), _vec(wk, "nu", 3)
+        eta, nu = np.array(_finite_floats(wk, "eta", 3)), np.array(_finite_floats(wk, "nu", 3))
         if "thrust" in wk:
             thrust = np.array(wk["thrust"], dtype=float)
         if "frame_count" in wk:
@@ -214,6 +229,6 @@ def decode_state(line: bytes | str) -> StateReply:
     accel = None
     imu = msg.get("imu")
     if isinstance(imu, dict) and "accel_body" in imu:
-        a = _vec(imu, "accel_body", 3)
-        accel = np.array([a[0], a[2]])
+        a = _finite_floats(imu, "accel_body", 3)
+        accel = np.array([a[0], a[2]], dtype=float)
     return StateReply(ts, eta, nu, thrust, count, accel, pressure_depth)
