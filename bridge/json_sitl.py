@@ -85,7 +85,8 @@ class StateReply:
 
 def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
     """The 16-channel servo packet for ``pwm`` (µs; missing channels are 0, values clipped to uint16)."""
-    ch = np.asarray(pwm, dtype=np.int64)[:16].clip(0, 65535).tolist()
+    # clipped on the ints: ndarray.clip's per-call cost was most of the packet's
+    ch = [0 if v < 0 else 65535 if v > 65535 else v for v in np.asarray(pwm, dtype=np.int64)[:16].tolist()]
     return SERVO_16.pack(MAGIC_16, int(frame_rate), int(frame_count) & 0xFFFFFFFF, *ch, *_NO_OUTPUT[len(ch):])
 
 
@@ -116,6 +117,13 @@ def decode_servo_packet(data: bytes) -> ServoPacket | None:
     return ServoPacket(rate, count, np.array([v or NEUTRAL_PWM_US for v in channels], dtype=float))
 
 
+def _plain_floats(values) -> list[float]:
+    """``[float(v) for v in values]``; a float64 vector (a plant's state) in one ``tolist``, the same floats."""
+    if type(values) is np.ndarray and values.dtype == np.float64 and values.ndim == 1:
+        return values.tolist()
+    return [float(v) for v in values]
+
+
 def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
                   g: float, frame_count: int | None = None, pressure_depth: float | None = None) -> dict[str, Any]:
     """The JSON SITL state of a planar vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
@@ -126,8 +134,8 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
     pressure at the depth sensor, goes in ``wavekeep.pressure_depth``: ArduPilot's protocol has no
     pressure field (its barometer follows ``position``), so only Wavekeep's HAL reads it.
     """
-    x, z, theta = (float(v) for v in eta)
-    u, w, q = (float(v) for v in nu)
+    x, z, theta = _plain_floats(eta)
+    u, w, q = _plain_floats(nu)
     du, dw = float(nu_dot[0]), float(nu_dot[1])
     st, ct = math.sin(theta), math.cos(theta)
     vn, vd = body_to_ned(theta, u, w)
@@ -142,7 +150,7 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
         "attitude": [0.0, theta, 0.0],
         # Last, and with no key that ArduPilot's substring parser looks for
         # (timestamp, gyro, accel_body, position, attitude, quaternion, velocity, rng_N, ...).
-        "wavekeep": {"eta": [x, z, theta], "nu": [u, w, q], "thrust": [float(f) for f in thrust]},
+        "wavekeep": {"eta": [x, z, theta], "nu": [u, w, q], "thrust": _plain_floats(thrust)},
     }
     if frame_count is not None:
         msg["wavekeep"]["frame_count"] = int(frame_count)
