@@ -392,11 +392,10 @@ class MavlinkLink:
             return
         for s in readable:
             if s is self._wake_r:
-                try:
-                    while self._wake_r.recv(4096):
-                        pass
-                except OSError:
-                    pass
+                # one read takes every wake-up byte queued (one per update at most); a rest, if ever,
+                # wakes the next select at once. Reading on to EAGAIN cost a syscall and an exception.
+                with contextlib.suppress(OSError):
+                    self._wake_r.recv(4096)
             else:
                 readers[s].on_readable(s, self._feed)
         for s in writable:
