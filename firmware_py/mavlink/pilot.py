@@ -39,7 +39,7 @@ surftrak)."""
 CAM, LIGHTS1, LIGHTS2, VIDEO = 7, 8, 9, 10          # indexes in LinkState.rc (RC channels 8-11)
 PWM_LO, PWM_HI = RC_NEUTRAL - RC_RANGE, RC_NEUTRAL + RC_RANGE
 SERVO_FREE = {0, 1, *range(51, 67)}                 # functions DO_SET_SERVO may drive
-_AUX_FUNCTION_PARAMS = tuple((ch, f"SERVO{ch}_FUNCTION") for ch in range(9, 17))   # read every link tick
+_AUX_FUNCTION_PARAMS = tuple((ch, f"SERVO{ch}_FUNCTION") for ch in range(9, 17))   # read when the table or the RC moved
 
 
 class Joystick:
@@ -60,6 +60,7 @@ class Joystick:
         self.failsafe = False
         self._lights_up = [True, True]
         self._servo_src: dict[int, tuple[int, int]] = {}
+        self._servo_key: tuple | None = None   # (table id, version, RC channels) the outputs were last set from
 
     # ------------------------------------------------------------------ MANUAL_CONTROL
     def manual_control(self, msg) -> tuple[float, float, float]:
@@ -180,6 +181,13 @@ class Joystick:
 
     def _refresh_servos(self) -> None:
         p, servo = self.fw.params, self.link.state.servo
+        # The outputs follow only their SERVOn_FUNCTION and the RC channels: while neither moved, a pass
+        # would change nothing (each source is as last applied), so it is skipped. A table without a
+        # version is read every time.
+        version = getattr(p, "version", None)
+        key = None if version is None else (id(p), version, tuple(self.link.state.rc))
+        if key is not None and key == self._servo_key:
+            return
         for ch, name in _AUX_FUNCTION_PARAMS:
             function = int(p[name])
             value = self._source(ch, function)
@@ -189,6 +197,7 @@ class Joystick:
             if self._servo_src.get(ch) != (function, value):
                 self._servo_src[ch] = (function, value)
                 servo[ch - 9] = value
+        self._servo_key = key
 
     def set_servo(self, channel: float, pwm: float) -> int:
         """MAV_CMD_DO_SET_SERVO: an output whose function is free (0, 1, RC pass-through) takes the PWM."""
