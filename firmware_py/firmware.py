@@ -207,12 +207,16 @@ class Firmware:
         self.controller.reset()
         self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
 
-    def prearm_failure(self) -> str | None:
-        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS)."""
+    def prearm_failure(self, ekf_converged: bool | None = None) -> str | None:
+        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS).
+
+        ``ekf_converged``: the estimator's :meth:`~firmware_py.estimator.PlanarEKF.converged` when the caller
+        has just asked it (the telemetry snapshot, every link tick); None asks it here."""
         checks = int(self.params.get("ARMING_CHECK", 1))
         if checks & (1 | 2 | 16) and not self.sensors_healthy:
             return "sensors unhealthy"
-        if checks & (1 | 16) and not self.ekf.converged():
+        converged = self.ekf.converged() if ekf_converged is None else ekf_converged
+        if checks & (1 | 16) and not converged:
             return "EKF not converged"
         return None
 

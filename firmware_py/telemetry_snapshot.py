@@ -110,12 +110,13 @@ class TelemetrySnapshot:
             except Exception:   # a forecast that cannot be evaluated reads as none
                 age = -1.0
         late = getattr(getattr(fw.hal, "clock", None), "late", 0)
+        converged = bool(fw.ekf.converged())
         common: dict[str, Any] = dict(mode=int(fw.mode), armed=bool(fw.armed), system_status=int(fw.system_status()),
-                      sensors_healthy=bool(fw.sensors_healthy), ekf_converged=bool(fw.ekf.converged()),
+                      sensors_healthy=bool(fw.sensors_healthy), ekf_converged=converged,
                       failsafe=bool(fw.failsafe_gcs or fw.failsafe_ekf), forecast_age=age,
                       late_slots=int(late or 0), origin_lat=float(p["WK_ORIGIN_LAT"]),
                       origin_lon=float(p["WK_ORIGIN_LON"]), tau_max_z=float(p["WK_TAU_MAX_Z"]),
-                      prearm_ok=fw.prearm_failure() is None)
+                      prearm_ok=fw.prearm_failure(converged) is None)
         if r is None:
             return cls(t=None, x_hat=(), measured_depth=math.nan, pwm=(), heave_force=0.0, tau_e_hat=(0.0,) * 3,
                        ff_active=False, **common)
