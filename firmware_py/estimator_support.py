@@ -37,8 +37,9 @@ class Tuning:
 
     @classmethod
     def of(cls, p: ParameterTable, r: np.ndarray, aided: bool) -> Tuning:
-        """From the table, with R's diagonal ``r`` (which it keeps, read-only); the aided mode's parameters
-        only when ``aided`` (placeholders otherwise)."""
+        """From the table, with R's diagonal ``r`` (which it keeps, read-only). The aided mode's parameters are
+        read only when ``aided``; the paper's mode never uses them, and gets neutral values (no adaptation,
+        the accelerometer free to correct θ)."""
         r.flags.writeable = False
         return cls(
             r=tuple(r.tolist()),
