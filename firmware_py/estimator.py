@@ -53,7 +53,6 @@ MEASURED_STATES = (0, 1, 2, 5, 3, 4)
 CHANNELS = ("position", "depth", "pitch", "pitch_rate", "dvl_u", "dvl_w", "accel_x", "accel_z")
 """Measurement channels; the paper's mode uses the first four."""
 
-_ACCEL = slice(6, 8)
 _ACCEL_CHANNELS = (6, 7)
 _EYE6 = np.eye(6)
 _EYE6.flags.writeable = False
@@ -345,11 +344,6 @@ class PlanarEKF:
                 hx += [math.nan, math.nan]
         return hx, H
 
-    def _predicted(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Predicted measurements h(x) and their Jacobian H (channels × states) for the readings z."""
-        hx, H = self._model(self.aided and bool(np.isfinite(z[_ACCEL]).any()))
-        return np.array(hx), H.copy()
-
     def _innovation_variance(self, H: np.ndarray, tune: Tuning) -> list[float]:
         """Each channel's innovation variance S_ii = (H P Hᵀ)_ii + R_ii.
 
@@ -371,18 +365,13 @@ class PlanarEKF:
         the NIS is within ``WK_EKF_GATE``², else counted rejected (and, for a directly measured state, reset
         to the reading once rejected for ``WK_EKF_RST_T`` s). The gating runs on Python floats (scalar IEEE
         arithmetic, the same bits as numpy's elementwise ops) and the fusion on the accepted subset."""
-        if not self.initialised:
-            zv = frame.as_vector()
-            if self.aided:
-                zv = np.concatenate([zv, frame.aiding_vector()])
-            if np.isfinite(zv[1:4]).all():
-                self.initialise(frame)
-            return np.isfinite(zv)
-        tune = self._tuning()
-        z = [frame.x, frame.depth, frame.pitch, frame.pitch_rate]
-        if self.aided:
-            z += [frame.dvl_u, frame.dvl_w, frame.acc_x, frame.acc_z]
+        z = frame.readings(self.aided)
         avail = list(map(math.isfinite, z))
+        if not self.initialised:
+            if all(avail[1:4]):
+                self.initialise(frame)
+            return np.array(avail)
+        tune = self._tuning()
         accel = self.aided and (avail[6] or avail[7])
         hx, H = self._model(accel)
         S = self._innovation_variance(H, tune)

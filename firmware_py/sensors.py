@@ -90,13 +90,13 @@ class SensorFrame:
     acc_x: float = math.nan    # m/s², specific force, body x (forward)
     acc_z: float = math.nan    # m/s², specific force, body z (down)
 
-    def as_vector(self) -> np.ndarray:
-        """[x, depth, θ, q] in the estimator's measurement order."""
-        return np.array([self.x, self.depth, self.pitch, self.pitch_rate])
-
-    def aiding_vector(self) -> np.ndarray:
-        """[u, w, f_x, f_z]: the aided estimator's further channels (DVL, accelerometer)."""
-        return np.array([self.dvl_u, self.dvl_w, self.acc_x, self.acc_z])
+    def readings(self, aided: bool = False) -> list[float]:
+        """The estimator's channels in its order: [x, depth, θ, q] and, ``aided``, the DVL's and the
+        accelerometer's [u, w, f_x, f_z] (NaN where the frame has no reading)."""
+        z = [self.x, self.depth, self.pitch, self.pitch_rate]
+        if aided:
+            z += [self.dvl_u, self.dvl_w, self.acc_x, self.acc_z]
+        return z
 
 
 @dataclass(frozen=True, slots=True)

@@ -100,7 +100,7 @@ def test_accelerometer_is_a_consider_measurement_for_pitch():
     ekf = m.firmware.ekf
     assert ekf.params["WK_EKF_ACC_TH"] == 0
     x0, P0 = ekf.kf.x[:, 0].copy(), ekf.P.copy()
-    hx, _ = ekf._predicted(np.r_[np.full(6, np.nan), 0.0, 0.0])
+    hx, _ = ekf._model(accel=True)   # the accelerometer's predicted [f_x, f_z] in channels 6, 7
     nan = math.nan
     frame = SensorFrame(t=m.firmware.ekf._last_accept_t.max() + 0.05, x=nan, depth=nan, pitch=nan,
                         pitch_rate=nan, acc_x=float(hx[6]) + 0.03, acc_z=float(hx[7]) - 0.03)
