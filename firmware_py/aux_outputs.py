@@ -37,8 +37,6 @@ class AuxOutputs:
         self.n = n
         self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self.test: MotorTest | None = None
-        self._key: tuple[int, int] | None = None
-        self._map: tuple[tuple[int, int], ...] = ()
 
     def rc_override(self, channel: int, pwm: int | None, now: float) -> None:
         """RC input ``channel`` (9–16) overridden to ``pwm`` µs at vehicle time ``now``, or released (None)."""
@@ -60,12 +58,11 @@ class AuxOutputs:
     def _functions(self) -> tuple[tuple[int, int], ...]:
         """(output index, SERVOn_FUNCTION) of the outputs set to RCIN9–16, read from the parameter table
         again only when it has changed (its ``version``): the control task asks every tick."""
-        key = (id(self.params), self.params.version)
-        if key != self._key:
-            functions = (int(self.params[f"SERVO{i + 1}_FUNCTION"]) for i in range(self.n))
-            self._map = tuple((i, f) for i, f in enumerate(functions) if f in RCIN_PASSTHROUGH)
-            self._key = key
-        return self._map
+        return self.params.derived(self._read_functions)
+
+    def _read_functions(self, p: ParameterTable) -> tuple[tuple[int, int], ...]:
+        functions = (int(p[f"SERVO{i + 1}_FUNCTION"]) for i in range(self.n))
+        return tuple((i, f) for i, f in enumerate(functions) if f in RCIN_PASSTHROUGH)
 
     def start_test(self, motor: int, pwm: int, timeout_s: float, now: float, armed: bool) -> MAV_RESULT:
         """Spin one motor (1-based) at a PWM for up to ``timeout_s`` (≤ 0.5 s) from vehicle time ``now``."""

@@ -25,6 +25,7 @@ Structure, after the authors' implementation (docs/reference.md §7):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -48,33 +49,33 @@ class ControlOutput:
     tau_dob: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the DOB part as applied
 
 
+class _Gains(NamedTuple):
+    """The controller's gains per axis, as arrays and as floats, and the DOB's limits (N, N, N m)."""
+
+    arrays: tuple[np.ndarray, ...]
+    floats: tuple[tuple[float, float, float], ...]
+    dob_lim: tuple[float, float, float]
+
+
+def _read_gains(p: ParameterTable) -> _Gains:
+    arrays = tuple(np.array(p.axes(name)) for name in _GAIN_FAMILIES)
+    # np.array(axes) * τ_max, the same products
+    dob_lim = tuple((np.array(p.axes("WK_DOB_LIM")) * arrays[4]).tolist())
+    return _Gains(arrays, tuple(tuple(g.tolist()) for g in arrays), dob_lim)
+
+
 class StationKeepingController:
     def __init__(self, params: ParameterTable, vehicle: VehicleParams):
         self.params = params
         self.vehicle = vehicle
         self._prev_error: tuple[float, float, float] | None = None
-        self._gains_key: tuple[int, int] | None = None
-        self._gains: tuple[np.ndarray, ...] = ()
-        self._gain_floats: tuple[tuple[float, float, float], ...] = ()
-        self._dob_lim: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._g_ref_key: tuple[float, float] | None = None
         self._g_ref = 0.0
 
     def gains(self) -> tuple[np.ndarray, ...]:
         """(K_p (1/s), K_d, ν_max (m/s, rad/s), K_pv (s/m), τ_max (N, N m)) per axis [surge, heave, pitch],
         read from the parameter table again only when it has changed (its ``version``)."""
-        self._refresh()
-        return self._gains
-
-    def _refresh(self) -> None:
-        """Re-read the gains (arrays and floats) and the DOB limits when the parameter table has changed."""
-        key = (id(self.params), self.params.version)
-        if key != self._gains_key:
-            self._gains = tuple(np.array(self.params.axes(name)) for name in _GAIN_FAMILIES)
-            self._gain_floats = tuple(tuple(g.tolist()) for g in self._gains)
-            # np.array(axes) * τ_max, the same products
-            self._dob_lim = tuple((np.array(self.params.axes("WK_DOB_LIM")) * self._gains[4]).tolist())
-            self._gains_key = key
+        return self.params.derived(_read_gains).arrays
 
     def reset(self) -> None:
         self._prev_error = None
@@ -88,10 +89,9 @@ class StationKeepingController:
         p = self.params
         if d_hat is None or not p["WK_DOB_ENABLE"]:
             return [0.0, 0.0, 0.0]
-        self._refresh()
         g = -p["WK_DOB_GAIN"]
         return [clip_float(g * d, -lim, lim)
-                for d, lim in zip(np.asarray(d_hat, dtype=float).tolist(), self._dob_lim, strict=True)]
+                for d, lim in zip(np.asarray(d_hat, dtype=float).tolist(), p.derived(_read_gains).dob_lim, strict=True)]
 
     def update(self, x_hat: np.ndarray, setpoint: np.ndarray, tau_ff: np.ndarray | None, dt: float,
                d_hat: np.ndarray | None = None) -> ControlOutput:
@@ -110,8 +110,7 @@ class StationKeepingController:
         prev = self._prev_error
         de = (0.0, 0.0, 0.0) if prev is None else tuple((ei - pi) / dt for ei, pi in zip(e, prev, strict=True))
         self._prev_error = e
-        self._refresh()
-        kp, kd, vmax, kv, tau_max = self._gain_floats
+        kp, kd, vmax, kv, tau_max = p.derived(_read_gains).floats
         ff = (0.0, 0.0, 0.0) if tau_ff is None else tuple(
             p["WK_FF_GAIN"] * t for t in np.asarray(tau_ff, dtype=float).tolist())
         dob = self._disturbance_feedback(d_hat)

@@ -103,11 +103,8 @@ class PlanarEKF:
         self.nis_total = (0.0, 0)            # the accepted readings' joint NIS yᵀS⁻¹y and its dof, last tick
         self._last_accept_t = np.full(m, -np.inf)
         self._q_key: tuple | None = None
-        self._q_table: ParameterTable | None = None  # _process_noise()'s cache: the table and its version
-        self._q_version = -1
         self._q = np.zeros((self.n, self.n))
         self._qd_param = [0.0, 0.0, 0.0]             # WK_EKF_QD_* (aided)
-        self._qd_adpt, self._qd_k = False, 0.0       # WK_EKF_QD_ADPT, WK_EKF_QD_K (aided)
         self._dd_var: list[float] | None = None      # mean square change of d̂ per tick (adaptive Q_d)
         self._d_prev: list[float] | None = None
         self._meas_states = MEASURED_STATES[:min(m, 6)]
@@ -120,12 +117,6 @@ class PlanarEKF:
         self._F0 = np.eye(9)
         self._lam = [1.0] * 4                        # innovation-driven scales on Q_d (X, Z, M) and Q_θ
         self._blk = [0.0, 0.0, 0.0]                  # pitch innovations' block: Σ y, Σ S, ticks
-        self._r_key: tuple | None = None             # measurement_noise()'s cache: (table, version, aided)
-        self._r = np.zeros(0)
-        self._tune_table: ParameterTable | None = None   # _tuning()'s cache: the table and its version
-        self._tune_version = -1
-        self._tune: Tuning | None = None
-        self._subsets: dict[int, Subset] = {}      # _subset()'s cache, per accepted-channel bit mask
         self._H0 = selection_rows(self._meas_states, m, self.n)    # H's rows that do not depend on the state
         # aided, with an accelerometer reading: the template of H with its constant block ∂f/∂d = M⁻¹'s rows
         self._H0_acc = self._H0.copy()
@@ -205,33 +196,23 @@ class PlanarEKF:
         when the table's version moves); aided, the disturbance's density is adapted (``WK_EKF_QD_ADPT``,
         :meth:`_adapt`) and it and the pitch's variance are scaled by the innovation-driven λ
         (``WK_EKF_QI_ADPT``, :meth:`_adapt_to_innovations`)."""
-        p, h = self.params, self.h
-        if p is not self._q_table or p.version != self._q_version:
-            self._q_table, self._q_version = p, p.version
-            names: tuple[str, ...]
-            if not self.aided:
-                names = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL",
-                         "WK_EKF_Q_RATE")
-            else:
-                names = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
-                         "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
-                self._qd_adpt, self._qd_k = bool(p["WK_EKF_QD_ADPT"]), p["WK_EKF_QD_K"]
-            key = tuple(p[n] for n in names)
-            if key != self._q_key:
-                q = np.array(key[:self.n])
-                self._q, self._q_key = np.diag(q**2 * h), key
-                tc = key[9] if self.aided else 0.0
-                self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
-                if self.aided:
-                    self._qd_param = q[6:].tolist()
-                    if self._dd_var is None:
-                        self._dd_var = (q[6:] ** 2 * h).tolist()
+        h, tune = self.h, self._tuning()
+        key = tune.q
+        if key != self._q_key:
+            q = np.array(key[:self.n])
+            self._q, self._q_key = np.diag(q**2 * h), key
+            tc = key[9] if self.aided else 0.0
+            self.kf.d_decay = math.exp(-h / tc) if tc > 0 else 1.0
+            if self.aided:
+                self._qd_param = q[6:].tolist()
+                if self._dd_var is None:
+                    self._dd_var = (q[6:] ** 2 * h).tolist()
         if not self.aided:
             return self._q
         qd = self._qd_param
-        if self._qd_adpt and self._dd_var is not None:
+        if tune.qd_adpt and self._dd_var is not None:
             # np.maximum(k √(var/h), q_d) per axis, on scalars (NaN stays NaN as in numpy)
-            k = self._qd_k
+            k = tune.qd_k
             qd = [max(k * sqrt(v / h), qp) for v, qp in zip(self._dd_var, self._qd_param, strict=True)]
         lam = self._lam
         # the disturbance's white-noise density integrated over the period into d and, through M⁻¹, into ν
@@ -279,31 +260,28 @@ class PlanarEKF:
     def measurement_noise(self) -> np.ndarray:
         """R's diagonal: each channel's noise variance (m², rad², (rad/s)², (m/s)², (m/s²)²), recomputed
         only when the parameter table has changed; a fresh array each call (callers may modify it)."""
-        p = self.params
-        key = (id(p), p.version, self.aided)
-        if key != self._r_key:
-            r = [p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]
-            if self.aided:
-                r += [p["WK_EKF_R_DVL"]] * 2 + [p["WK_EKF_R_ACC"]] * 2
-            self._r, self._r_key = np.array(r) ** 2, key
-        return self._r.copy()
+        return self.params.derived(self._read_noise).copy()
+
+    def _read_noise(self, p: ParameterTable) -> np.ndarray:
+        r = [p["WK_EKF_R_POS"], p["WK_EKF_R_DEPTH"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_GYRO"]]
+        if self.aided:
+            r += [p["WK_EKF_R_DVL"]] * 2 + [p["WK_EKF_R_ACC"]] * 2
+        return np.array(r) ** 2
 
     def _tuning(self) -> Tuning:
-        """The update's parameters (:class:`Tuning`), re-read only when the table or its version changes."""
-        p = self.params
-        if p is not self._tune_table or p.version != self._tune_version or self._tune is None:
-            self._tune = Tuning.of(p, self.measurement_noise(), self.aided)
-            self._tune_table, self._tune_version = p, p.version
-            self._subsets.clear()
-        return self._tune
+        """The update's parameters (:class:`Tuning`), re-read only when the table has changed."""
+        return self.params.derived(self._read_tuning)
+
+    def _read_tuning(self, p: ParameterTable) -> Tuning:
+        return Tuning.of(p, self.measurement_noise(), self.aided)
 
     def _subset(self, mask: int) -> Subset:
         """The fusion's constant inputs for the accepted channels whose bits are set in ``mask``
-        (built once per set of channels and parameter version)."""
-        sub = self._subsets.get(mask)
+        (built once per set of channels and parameter version: kept with the :class:`Tuning`)."""
+        tune = self._tuning()
+        sub = tune.subsets.get(mask)
         if sub is None:
-            tune = self._tuning()
-            sub = self._subsets[mask] = Subset.of(mask, self._H0, tune.r, _ACCEL_CHANNELS, tune.acc_th)
+            sub = tune.subsets[mask] = Subset.of(mask, self._H0, tune.r, _ACCEL_CHANNELS, tune.acc_th)
         return sub
 
     def _accel_model(self, H: np.ndarray) -> list[float]:

@@ -8,7 +8,7 @@ arithmetic it does; the gating and the noise adaptation therefore run on Python 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,6 +16,11 @@ from .floats import square_over
 from .params import ParameterTable
 
 __all__ = ["Subset", "Tuning", "innovation_scales", "selection_rows"]
+
+
+_Q_NAMES = ("WK_EKF_Q_POS", "WK_EKF_Q_POS", "WK_EKF_Q_ANG", "WK_EKF_Q_VEL", "WK_EKF_Q_VEL", "WK_EKF_Q_RATE")
+_Q_NAMES_AIDED = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_Q_VEL_A", "WK_EKF_Q_VEL_A",
+                  "WK_EKF_Q_RATE_A", "WK_EKF_QD_X", "WK_EKF_QD_Z", "WK_EKF_QD_P", "WK_EKF_D_TC")
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +39,10 @@ class Tuning:
     qi_tc_th: float           # WK_EKF_QI_TC_TH (s)
     qi_blk: float             # WK_EKF_QI_BLK (ticks)
     qi_max: float             # WK_EKF_QI_MAX
+    q: tuple[float, ...]      # the process noise's WK_EKF_Q*_ (and, aided, QD_* and D_TC) values, in Q's order
+    qd_adpt: bool             # WK_EKF_QD_ADPT
+    qd_k: float               # WK_EKF_QD_K
+    subsets: dict[int, Subset] = field(default_factory=dict, compare=False, repr=False)  # per accepted-channel mask
 
     @classmethod
     def of(cls, p: ParameterTable, r: np.ndarray, aided: bool) -> Tuning:
@@ -53,6 +62,9 @@ class Tuning:
             qi_tc_th=p["WK_EKF_QI_TC_TH"] if aided else 1.0,
             qi_blk=p["WK_EKF_QI_BLK"] if aided else 1.0,
             qi_max=p["WK_EKF_QI_MAX"] if aided else 1.0,
+            q=tuple(p[n] for n in (_Q_NAMES_AIDED if aided else _Q_NAMES)),
+            qd_adpt=bool(p["WK_EKF_QD_ADPT"]) if aided else False,
+            qd_k=p["WK_EKF_QD_K"] if aided else 0.0,
         )
 
 

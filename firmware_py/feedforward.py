@@ -125,6 +125,12 @@ def _correlation(cov: float, var_a: float, var_b: float) -> float:
     return min(max(r, -1.0), 1.0) if math.isfinite(r) else 1.0
 
 
+def _axis_limits(p: ParameterTable) -> tuple[Vec3, Vec3]:
+    """τ_max and the FF's authority limit ``WK_FF_LIM_*``·τ_max (N, N, N m), per axis."""
+    tau_max, lim = p.axes("WK_TAU_MAX"), p.axes("WK_FF_LIM")
+    return tau_max, (lim[0] * tau_max[0], lim[1] * tau_max[1], lim[2] * tau_max[2])
+
+
 def _lowpass(prev: Vec3 | None, new: Vec3, h: float, tc: float) -> Vec3:
     """One step of a first-order low-pass filter (time constant tc s, step h s); tc = 0 passes through."""
     if prev is None or tc <= 0.0:
@@ -155,9 +161,6 @@ class WaveFeedForward:
         self.set_aside = 0              # times the forecast was set aside (kept across resets)
         self._aside_left = 0.0          # s the forecast stays aside whatever the monitor says
         self._inertial = InertialVelocity(h, params["WK_FF_SKILL_VTC"], vehicle.g)   # the skill's velocity
-        self._axes_key: tuple[int, int] | None = None    # (table, version) the per-axis limits were read at
-        self._tau_max: Vec3 = (1.0, 1.0, 1.0)
-        self._ff_lim: Vec3 = (1.0, 1.0, 1.0)
         self.reset()
 
     def reset(self) -> None:
@@ -174,18 +177,6 @@ class WaveFeedForward:
         self.skill_weight = np.ones(3)    # per axis, from the skill (WK_FF_SKILL_LO/HI)
         self._moments = np.zeros((5, 3))   # windowed means of o, p and (co)variances oo, pp, op of the loads
         self._skill_age = 0.0              # s of loads in the window
-
-    def _axis_limits(self) -> tuple[Vec3, Vec3]:
-        """τ_max and the FF's authority limit ``WK_FF_LIM_*``·τ_max (N, N, N m), read again only when a
-        parameter has changed."""
-        p = self.params
-        key = (id(p), p.version)
-        if key != self._axes_key:
-            tau_max, lim = p.axes("WK_TAU_MAX"), p.axes("WK_FF_LIM")
-            self._tau_max = tau_max
-            self._ff_lim = (lim[0] * tau_max[0], lim[1] * tau_max[1], lim[2] * tau_max[2])
-            self._axes_key = key
-        return self._tau_max, self._ff_lim
 
     # ------------------------------------------------------------------ models
     def _load(self, nu: Vec3, flow: BodyFlow, i: int, mode: int) -> Vec3:
@@ -285,7 +276,7 @@ class WaveFeedForward:
         self.skill_weight = self._skill_weight()
         weight = self.weight * self.skill_weight if not self.distrusted else np.zeros(3)
         if mode == 1:
-            lim, wt = self._axis_limits()[1], weight.tolist()
+            lim, wt = self.params.derived(_axis_limits)[1], weight.tolist()
             tau_ff = np.array([wt[i] * clip_float(-tau_e_hat[i], -lim[i], lim[i]) for i in range(3)])
         else:
             tau_ff = -np.array(tau_e_hat)
@@ -314,7 +305,7 @@ class WaveFeedForward:
                 self._skill_obs_f = _lowpass(self._skill_obs_f, loads[0], h, tc)
                 self._skill_pred_f = _lowpass(self._skill_pred_f, loads[1], h, tc)
                 self._update_skill(self._skill_obs_f, self._skill_pred_f)
-        tau_max, w_min = self._axis_limits()[0], p["WK_FF_W_MIN"]
+        tau_max, w_min = p.derived(_axis_limits)[0], p["WK_FF_W_MIN"]
         # Fade within a few ticks, recover over WK_FF_MON_TC
         fade, recover = 1.0 - math.exp(-h / 0.1), 1.0 - math.exp(-h / tc)
         weight = self.weight.tolist()

@@ -76,25 +76,21 @@ class MotorMixer:
                                     tuple(b for b in col if b != 0.0)) for col in cols)
         self.f_hat = np.zeros(layout.n)
         self._stage_offsets = np.array([0.0, 0.5 * self.h, self.h])
-        self._settings_key: tuple[int, int] | None = None
-        self._settings: _Settings | None = None
 
     def reset(self) -> None:
         self.f_hat = np.zeros(self.layout.n)
 
     def settings(self) -> _Settings:
         """The mixer's parameters, read from the table again only when it has changed (its ``version``)."""
-        p = self.params
-        key = (id(p), p.version)
-        if key != self._settings_key or self._settings is None:
-            t_m = p["WK_MOT_TC"]
-            keep = math.exp(-self.h / t_m)
-            # motor_lag_stages' factors (numpy's exp, which may differ from math.exp in the last bit)
-            lag = motor_lag_factors(t_m, self._stage_offsets)
-            self._settings = _Settings(p["WK_THR_MAX"], p["WK_THR_MIN"], bool(p["WK_MOT_COMP"]),
-                                       bool(p["WK_MOT_LIM"]), keep, 1.0 - keep, lag)
-            self._settings_key = key
-        return self._settings
+        return self.params.derived(self._read_settings)
+
+    def _read_settings(self, p: ParameterTable) -> _Settings:
+        t_m = p["WK_MOT_TC"]
+        keep = math.exp(-self.h / t_m)
+        # motor_lag_stages' factors (numpy's exp, which may differ from math.exp in the last bit)
+        lag = motor_lag_factors(t_m, self._stage_offsets)
+        return _Settings(p["WK_THR_MAX"], p["WK_THR_MIN"], bool(p["WK_MOT_COMP"]), bool(p["WK_MOT_LIM"]),
+                         keep, 1.0 - keep, lag)
 
     def output(self, pwm: np.ndarray, f_d: np.ndarray | None = None) -> MixerOutput:
         """Send these PWM values (µs); keeps the firmware's motor model in step."""

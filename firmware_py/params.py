@@ -13,9 +13,10 @@ the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, TypeVar
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
@@ -290,12 +291,16 @@ def parse_assignment(text: str) -> tuple[str, float]:
         raise ValueError(f"expected NAME=NUMBER, got {text!r}") from None
 
 
+T = TypeVar("T")
+
+
 class ParameterTable:
     """Named values with ranges; ArduPilot parameter semantics.
 
     ``table["WK_PD_KP_X"]`` reads, :meth:`set` writes with a range check.
-    ``version`` increases on every accepted change, so a consumer can cache
-    derived values and refresh only when it moves.
+    ``version`` increases on every accepted change; :meth:`derived` keeps a
+    value computed from the table until it moves (the control task's modules
+    read their gains, limits and noise that way rather than every tick).
     """
 
     def __init__(self, defs: Iterable[ParamDef], values: dict[str, float]):
@@ -311,6 +316,7 @@ class ParameterTable:
                 raise ValueError(f"parameter {name}: {why}")
             self._values[name] = float(values[name])
         self.version = 0
+        self._derived: dict[Callable[[ParameterTable], Any], tuple[int, Any]] = {}
 
     def __getitem__(self, name: str) -> float:
         return self._values[name]
@@ -350,6 +356,17 @@ class ParameterTable:
             self._values[name] = float(value)
             self.version += 1
         return None
+
+    def derived(self, build: Callable[[ParameterTable], T]) -> T:
+        """``build(self)``, computed again only after a parameter has changed (:attr:`version`).
+
+        Kept per ``build`` (a function, or a bound method: one entry per owner), so each consumer reads
+        the table once per change however often it asks.
+        """
+        entry = self._derived.get(build)
+        if entry is None or entry[0] != self.version:
+            entry = self._derived[build] = (self.version, build(self))
+        return entry[1]
 
     def axes(self, prefix: str) -> tuple[float, float, float]:
         """The (surge, heave, pitch) triple of a per-DoF parameter family, e.g. ``axes("WK_PD_KP")``."""

@@ -97,6 +97,14 @@ def preview_excursions(vehicle: VehicleParams, params: ParameterTable, component
     return worst
 
 
+def _preview_tables(p: ParameterTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The candidate shifts (C, 2) m, their tie-break penalty 1e-3 |s| and :func:`preview_gains`
+    (read through :meth:`ParameterTable.derived <firmware_py.params.ParameterTable.derived>`)."""
+    s_max = np.array([p["WK_PRV_MAX_X"], p["WK_PRV_MAX_Z"]])
+    cands = np.linspace(-1.0, 1.0, N_CANDIDATES)[:, None] * s_max
+    return cands, 1e-3 * np.abs(cands), preview_gains(p)
+
+
 class SaturationPreview:
     """The target offset (NED, m) that keeps a forecast saturating wave group's excursion smallest.
 
@@ -111,8 +119,6 @@ class SaturationPreview:
         self.params = params
         self.strips = strips
         self.h = h
-        self._tables_key: tuple[int, int] | None = None
-        self._tables_cache: tuple[np.ndarray, np.ndarray, np.ndarray] = (np.zeros((0, 2)),) * 3
         self.reset()
 
     def reset(self) -> None:
@@ -147,7 +153,7 @@ class SaturationPreview:
     def _choose(self, components: WaveComponents, x_hat: np.ndarray, setpoint: np.ndarray, t: float) -> np.ndarray:
         """The candidate shift per axis with the smallest predicted largest excursion (0 unless it matters)."""
         p = self.params
-        cands, penalty, gains = self._tables()
+        cands, penalty, gains = p.derived(_preview_tables)
         th = float(x_hat[2])
         error0 = np.array(ned_to_body(th, float(x_hat[0] - setpoint[0]), float(x_hat[1] - setpoint[1])))
         worst = preview_excursions(self.vehicle, p, components, np.asarray(x_hat[:3]), np.asarray(x_hat[3:]),
@@ -170,14 +176,3 @@ class SaturationPreview:
             goal.append(c[best][a] if keep else 0.0)
         return np.array(goal)
 
-    def _tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The candidate shifts (C, 2) m, their tie-break penalty 1e-3 |s| and :func:`preview_gains`,
-        computed again only when the parameter table has changed (its ``version``)."""
-        key = (id(self.params), self.params.version)
-        if key != self._tables_key:
-            p = self.params
-            s_max = np.array([p["WK_PRV_MAX_X"], p["WK_PRV_MAX_Z"]])
-            cands = np.linspace(-1.0, 1.0, N_CANDIDATES)[:, None] * s_max
-            self._tables_cache = (cands, 1e-3 * np.abs(cands), preview_gains(p))
-            self._tables_key = key
-        return self._tables_cache

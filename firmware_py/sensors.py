@@ -132,16 +132,10 @@ class SimulatedSensors:
         self.rng = np.random.default_rng(seed)
         self.rng_aid = np.random.default_rng([int(seed) % 2**63, 0xD71])   # DVL and accelerometer
         self._last_slot = {"pos": -1, "depth": -1, "dvl": -1}
-        self._sim: _SimParams | None = None                 # _sim_params()'s cache: the values, table, version
-        self._sim_key: tuple[ParameterTable, int] | None = None
 
     def _sim_params(self) -> _SimParams:
         """The SIM_* values, re-read only when the parameter table (or its version) changes."""
-        p = self.params
-        key = self._sim_key
-        if self._sim is None or key is None or key[0] is not p or key[1] != p.version:
-            self._sim, self._sim_key = _SimParams.of(p), (p, p.version)
-        return self._sim
+        return self.params.derived(_SimParams.of)
 
     def _due(self, name: str, t: float, rate: float) -> bool:
         """Is a new reading of the sensor at ``rate`` Hz due at t (its slot changed since the last read)?"""
