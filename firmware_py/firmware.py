@@ -39,7 +39,11 @@ from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
 from .tick_columns import TICK_COLUMNS
 
-__all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
+__all__ = ["LOAD_MODELS", "TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
+
+LOAD_MODELS = {0: "paper", 1: "complete"}
+"""``WK_LOAD_MODEL`` values: the nominal model's fluid-inertia load (one of
+:data:`~bridge.models.vehicle.WAVE_LOAD_MODELS`)."""
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,7 @@ class Firmware:
                  forecast: ForecastHandoff | None = None, on_tick: Callable[[TickRecord], None] | None = None):
         self.hal = hal
         self.params = params
+        vehicle = vehicle.with_wave_load(LOAD_MODELS[int(params["WK_LOAD_MODEL"])])   # read at boot
         self.vehicle = vehicle
         self.h = 1.0 / loop_rate_hz
         self.strips = strip_nodes(vehicle.length, strips)

@@ -159,6 +159,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
     ParamDef("WK_FF_MODE", 0, 2, "", "feed-forward law: 0 paper (nu = 0), 1 robust, "
              "2 wave part at the estimated velocity", integer=True),
+    ParamDef("WK_LOAD_MODEL", 0, 1, "", "nominal wave-load model of the FF, estimator and preview: 1 complete "
+             "(Froude-Krylov + added mass, with the pitch coupling), 0 the paper's (added mass only); read at boot",
+             ptype="INT8"),
     ParamDef("WK_FF_VEL_TC", 0.0, 5.0, "s", "robust FF: low-pass time constant of the estimated velocity it uses"),
     *_axes("WK_FF_LIM", 0.0, 2.0, ("", "", ""), "robust FF: feed-forward authority as a fraction of tau_max"),
     ParamDef("WK_FF_MON_THR", 0.0, 2.0, "", "robust FF: predicted-observed load disagreement (fraction of "

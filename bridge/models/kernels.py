@@ -23,6 +23,7 @@ Parameter vector (``VehicleParams.kernel_params``), float64, in this order::
     0 W   1 B   2 height   3 r_G[0]   4 r_G[2]   5 r_B[0]   6 r_B[2]
     7 X_udot   8 Z_wdot   9 X_qdot   10 X_u   11 Z_w   12 M_q   13 X_uu   14 Z_ww   15 M_qq
     16 M_RB[0,0]   17 M_RB[0,2]   18 M_RB[1,1]   19 M_RB[1,2]   20..28 M⁻¹ row-major
+    29 fk_mass (ρ∇, or 0 in the paper's load model)   30 fluid_pitch_coupling (M_u̇ + ρ∇ z_B, or 0)
 """
 from __future__ import annotations
 
@@ -147,15 +148,18 @@ def hydro_load(pv, u, w, q, has_flow, xs, wts, up, wp, ax, az):  # pragma: no co
         Z = -(Z_w + Z_ww * abs(w)) * w
         Mh = 0.0
     else:
-        X = Z = Mh = ub = wb = 0.0
+        m_x, m_z = X_udot + pv[29], Z_wdot + pv[29]
+        X = Z = Mh = ub = wb = axb = 0.0
         for j in range(xs.size):
             urj, wrj = u - up[j], w - wp[j]
-            fz = Z_wdot * az[j] - (Z_w + Z_ww * abs(wrj)) * wrj
-            X += wts[j] * (X_udot * ax[j] - (X_u + X_uu * abs(urj)) * urj)
+            fz = m_z * az[j] - (Z_w + Z_ww * abs(wrj)) * wrj
+            X += wts[j] * (m_x * ax[j] - (X_u + X_uu * abs(urj)) * urj)
             Z += wts[j] * fz
             Mh -= wts[j] * xs[j] * fz
             ub += wts[j] * up[j]
             wb += wts[j] * wp[j]
+            axb += wts[j] * ax[j]
+        Mh += pv[30] * axb
         ur, wr = u - ub, w - wb
     pAx, pAz = X_udot * ur + X_qdot * q, Z_wdot * wr
     X -= pAz * q
@@ -346,7 +350,7 @@ def warm_up() -> None:
         return
     _warm = True
     one, z1, z3 = np.ones(1), np.zeros(1), np.zeros((3, 1))
-    pv = np.ones(29)
+    pv = np.ones(31)
     body_flow_arrays(one, one, z1, np.ones((2, 1)), np.ones((2, 1)), z1, one, one, 10.0, 0.0, 1.0, 0.0, z1,
                      np.zeros(3), one, one)
     x, tau = np.zeros(6), np.zeros((3, 3))
