@@ -37,12 +37,22 @@ def test_out_not_writable(capsys):
 
 
 def test_out_not_empty_needs_force(tmp_path, capsys):
-    (tmp_path / "results.json").write_text("{}")
+    """README: ``--force`` reuses a folder, removing the previous run's files first; anything else stays."""
+    stale = ["results.json", "timeseries.csv", "time_history.png", "firmware.log", "plant.log", "mission.tlog",
+             "reproduce.json"]                   # a `wavekeep sim` or `reproduce` left these; openloop writes fewer
+    for name in stale:
+        (tmp_path / name).write_text("stale")
     (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "old.log").write_text("mine too")
     refused(capsys, ["openloop", "--duration", "1", "--out", str(tmp_path)], "not empty", "--force")
+    assert all((tmp_path / name).read_text() == "stale" for name in stale)     # refused: nothing touched
     assert main(["openloop", "--duration", "1", "--out", str(tmp_path), "--force"]) == 0
+    written = {"results.json", "timeseries.csv", "openloop.png", "run.json"}
+    assert {p.name for p in tmp_path.iterdir()} == written | {"notes.txt", "mine"}    # no stale run file left
+    assert all((tmp_path / name).read_text() != "stale" for name in written & set(stale))
     assert (tmp_path / "notes.txt").read_text() == "mine"      # not the run's: kept
-    assert (tmp_path / "run.json").is_file()
+    assert (tmp_path / "mine" / "old.log").read_text() == "mine too"     # nor is a sub-folder's
 
 
 @pytest.mark.parametrize("value, words", [("1e9", ("--duration", "one day")), ("0.01", ("--duration", "control")),
