@@ -1,6 +1,7 @@
 """Issue #17: bad input is one line ``wavekeep CMD: …`` on stderr, exit 2 — never a traceback, nothing left behind."""
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import subprocess
@@ -81,6 +82,37 @@ def test_reproduce_refuses_and_leaves_no_folder(tmp_path, capsys):
 def test_sim_ports(tmp_path, capsys, argv, words):
     refused(capsys, ["sim", *argv, "--out", str(tmp_path / "s")], *words)
     assert not (tmp_path / "s").exists()
+
+
+def test_sim_refuses_in_one_line_while_its_default_ports_are_held(tmp_path, monkeypatch, capsys):
+    """Another run holds the default ports (here: ports this test holds, as the defaults): a refused sim still
+    says one line and nothing else, since the ports are chosen only after every check has passed."""
+    from sitl.harness.commands import processes
+
+    with contextlib.ExitStack() as stack:
+        for name, (_, kind, what) in list(processes.SIM_PORTS.items()):
+            held = stack.enter_context(socket.socket(socket.AF_INET, kind))
+            held.bind(("127.0.0.1", 0))
+            if kind == socket.SOCK_STREAM:
+                held.listen()
+            monkeypatch.setitem(processes.SIM_PORTS, name, (held.getsockname()[1], kind, what))
+        refused(capsys, ["sim", "--sea-set", "current.speed=9", "--out", str(tmp_path / "s")], "--sea-set")
+        refused(capsys, ["sim", "--true-vehicle", "no_such_vehicle", "--out", str(tmp_path / "s")], "--true-vehicle")
+    assert not (tmp_path / "s").exists()
+
+
+def test_sim_default_port_is_not_one_given_for_another_process(monkeypatch, capsys):
+    """`--plant-port 14550` with the GCS port left out: the GCS gets a free port, not the plant's."""
+    import argparse
+
+    from sitl.harness.commands import processes
+    from sitl.harness.ports import free_port
+
+    spare = free_port()
+    monkeypatch.setitem(processes.SIM_PORTS, "--gcs-port", (spare, socket.SOCK_DGRAM, "GCS"))
+    ports = processes._sim_ports(argparse.Namespace(plant_port=spare, gcs_port=None, zenoh_port=7000))
+    assert ports["--plant-port"] == spare and ports["--gcs-port"] not in (spare, 7000)
+    assert f"port {spare} (GCS) is taken; using {ports['--gcs-port']}" in capsys.readouterr().err
 
 
 def test_live_udpin_port_in_use(capsys):
