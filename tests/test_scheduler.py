@@ -215,11 +215,12 @@ def test_task_stats_percentiles():
 
 
 def test_wallclock_no_drift():
-    """The loop keeps its absolute grid while its task works 10 ms a tick: the 40th run starts near
-    t0 + 39 periods. A loop that slept a period after each tick's work would start it 39 × 10 ms late."""
+    """The loop keeps its absolute grid while its task works 20 ms a tick: runs start on their slots and the
+    40th run starts near t0 + 39 periods. A loop that slept a period after each tick's work would start it
+    39 × 20 ms = 780 ms late, and its runs anywhere in their periods."""
     clock = WallClock()
     log = []
-    work_ns = 10 * MS
+    work_ns = 20 * MS
 
     def ctl(t_sched: int) -> None:
         start = clock.now_ns()
@@ -234,12 +235,11 @@ def test_wallclock_no_drift():
     sched = np.array([t for t, _ in log])
     start = np.array([a for _, a in log])
     assert len(log) == 40
-    # the grid does not drift: the last run starts near t0 + 39 periods, with room for the wake-up latency
-    # and two lost slots; sleeping a relative period would make it 390 ms late
+    # The grid does not drift: the last run starts near t0 + 39 periods. A slot is lost only to a stall of
+    # over 30 ms (up to two in 2 s with the machine's 2 cores loaded 4-fold); the bound allows seven.
     late = start[-1] - (t0 + 39 * PERIOD)
-    assert 0 <= late < 150 * MS, f"the 40th run started {late / MS:.1f} ms after t0 + 39 periods"
+    assert 0 <= late < 400 * MS, f"the 40th run started {late / MS:.1f} ms after t0 + 39 periods"
     assert np.all((sched - t0) % PERIOD == 0) and np.all(np.diff(sched) >= PERIOD)
     assert np.all(start >= sched)  # never early
-    if s.skipped_slots == 0:   # a slot can only be lost to a > 40 ms stall of the whole machine
-        mean_period = (start[-1] - start[0]) / 39
-        assert abs(mean_period - PERIOD) < 0.01 * PERIOD
+    lateness = np.median(start - sched)     # under 1 ms loaded; a relative sleep spreads it over the period
+    assert lateness < 5 * MS, f"runs start a median {lateness / MS:.1f} ms after their slots"
