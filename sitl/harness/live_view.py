@@ -61,10 +61,12 @@ class ViewServer:
                 str(self.grpc_port), "--web-viewer-port", str(self.web_port), "--hide-welcome-screen"]
         if self.rrd is not None:
             argv.append(str(Path(self.rrd).resolve()))
-        out = open(self.log_path, "w") if self.log_path else subprocess.DEVNULL  # noqa: SIM115 — the child's
-        self.proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
-        if out is not subprocess.DEVNULL:
-            out.close()
+        if self.log_path:
+            with open(self.log_path, "w") as out:
+                self.proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        else:
+            self.proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
+                                         start_new_session=True)
         end = time.monotonic() + timeout_s
         while not (_listening(self.web_port) and _listening(self.grpc_port)):
             if self.proc.poll() is not None:
@@ -116,7 +118,7 @@ class LiveRecorder:
         self.rec.set_sinks(*sinks, default_blueprint=blueprint(rr))
         self.rec.send_recording_name(name)
         log_static(rr, self.rec, geometry)
-        self.convert = convert or (lambda rows: columns_of(self.names, rows))
+        self.convert = convert or (lambda rows: columns_of(self.names, np.asarray(rows, dtype=float)))
         self._rows: list = []
         self._events: list[Event] = []
         self._thrust: np.ndarray | None = None

@@ -74,16 +74,7 @@ def write_columns(rr, rec, cols: Columns, geometry: SceneGeometry | None = None,
             x, z, th = (cols[k] for k in keys)
             rec.send_columns(f"world/vehicle/{name}", indexes=tc, columns=rr.Transform3D.columns(
                 translation=_points(x, z), quaternion=_pitch_quaternions(th)))
-    for name, keys in (("station", ("sp_x", "sp_z")), ("preview", ("prv_x", "prv_z"))):
-        if _has(cols, *keys):
-            x, z = cols[keys[0]], cols[keys[1]]
-            if name == "preview":   # the preview logs its offset from the station
-                if not _has(cols, "sp_x", "sp_z"):
-                    continue
-                x, z = cols["sp_x"] + x, cols["sp_z"] + z
-            rec.send_columns(f"world/target/{name}", indexes=tc, columns=rr.Points3D.columns(
-                positions=_points(x, z), radii=np.full(t.size, 0.06 if name == "station" else 0.04)).partition(
-                    np.ones(t.size, dtype=int)))
+    _send_targets(rr, rec, tc, cols)
     last = thrust0
     if geometry is not None and _has(cols, *(f"pwm{i}" for i in range(1, 9))):
         pwm = np.column_stack([cols[f"pwm{i}"] for i in range(1, 9)])
@@ -93,6 +84,19 @@ def write_columns(rr, rec, cols: Columns, geometry: SceneGeometry | None = None,
         _send_sea(rr, rec, cols, geometry)
     _send_series(rr, rec, tc, cols)
     return last
+
+
+def _send_targets(rr, rec, tc, cols: Columns) -> None:
+    """The station [x, depth] and the saturation preview's shifted target (it logs its offset)."""
+    if not _has(cols, "sp_x", "sp_z"):
+        return
+    n = cols["sp_x"].size
+    targets = {"station": (cols["sp_x"], cols["sp_z"], 0.06)}
+    if _has(cols, "prv_x", "prv_z"):
+        targets["preview"] = (cols["sp_x"] + cols["prv_x"], cols["sp_z"] + cols["prv_z"], 0.04)
+    for name, (x, z, radius) in targets.items():
+        rec.send_columns(f"world/target/{name}", indexes=tc, columns=rr.Points3D.columns(
+            positions=_points(x, z), radii=np.full(n, radius)).partition(np.ones(n, dtype=int)))
 
 
 def replay_thrust(g: SceneGeometry, pwm: np.ndarray, t: np.ndarray, f0: np.ndarray | None = None,

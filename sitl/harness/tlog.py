@@ -132,10 +132,10 @@ class TlogCollector:
             a = np.array(r, dtype=float).reshape(-1, len(FIELDS[kind]) + 1)
             data.tables[kind] = {"t": a[:, 0], **{f: a[:, i + 1] for i, f in enumerate(FIELDS[kind])}}
             r.clear()
-        for name, r in self._named.items():
-            a = np.array(r, dtype=float).reshape(-1, 2)
+        for name, pairs in self._named.items():
+            a = np.array(pairs, dtype=float).reshape(-1, 2)
             data.named[name] = {"t": a[:, 0], "value": a[:, 1]}
-            r.clear()
+            pairs.clear()
         data.events.sort(key=lambda e: e.t)
         self.data = TlogData(data.path, data.sysid)
         return data

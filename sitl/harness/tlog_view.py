@@ -25,7 +25,9 @@ arming and status texts are the events.
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -66,12 +68,12 @@ def tlog_columns(data: TlogData) -> dict[str, np.ndarray]:
         order = np.argsort(table["t"], kind="stable")
         return _held(table["t"][order], table[name][order], t)
 
-    att = {f: held("ATTITUDE", f) for f in FIELDS["ATTITUDE"]}
+    att: dict[str, Any] = {f: held("ATTITUDE", f) for f in FIELDS["ATTITUDE"]}
     if att["pitch"] is not None:
         cols["theta_hat"], cols["q_hat"] = att["pitch"], att["pitchspeed"]
         for f in ("roll", "pitch", "yaw"):
             cols[f"plots/tlog/attitude/{f}"] = np.degrees(att[f])
-    local = {f: held("LOCAL_POSITION_NED", f) for f in FIELDS["LOCAL_POSITION_NED"]}
+    local: dict[str, Any] = {f: held("LOCAL_POSITION_NED", f) for f in FIELDS["LOCAL_POSITION_NED"]}
     if local["x"] is not None:
         cols["x_hat"], cols["z_hat"], cols["u_hat"], cols["w_hat"] = local["x"], local["z"], local["vx"], local["vz"]
         for f in ("x", "y", "z"):
@@ -139,7 +141,7 @@ def write_tlog_csv(cols: dict[str, np.ndarray], data: TlogData, path: str | Path
     return path
 
 
-def _labels(changes: list[tuple[float, object]], t: np.ndarray, before) -> list:
+def _labels(changes: Sequence[tuple[float, object]], t: np.ndarray, before) -> list:
     """The value in force at each time of t, from a list of (time, new value)."""
     times = np.array([c[0] for c in changes])
     i = np.searchsorted(times, t, side="right") - 1

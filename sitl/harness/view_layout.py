@@ -104,9 +104,10 @@ def log_static(rr, rec, geometry: SceneGeometry | None) -> None:
 _TRUE, _ESTIMATE, _FORECAST, _GREY = (70, 140, 255), (120, 230, 120), (245, 150, 50), (150, 150, 150)
 
 
-def _series_styles() -> dict[str, tuple[tuple[int, int, int], str]]:
+def _series_styles() -> dict[str, tuple[tuple[int, ...], str]]:
     """Colour and legend of each series: truth blue, estimate green, forecast and FF orange."""
-    styles = {"wave/true": (_TRUE, "true ζ"), "wave/forecast": (_FORECAST, "forecast ζ"),
+    styles: dict[str, tuple[tuple[int, ...], str]] = {
+              "wave/true": (_TRUE, "true ζ"), "wave/forecast": (_FORECAST, "forecast ζ"),
               "nis/nis": ((200, 120, 230), "NIS"), "nis/per_dof": ((240, 240, 240), "NIS / dof"),
               "ff/active": ((240, 240, 240), "FF on")}
     for pose, axis in DOFS:
