@@ -110,14 +110,15 @@ class LiveRecorder:
 
     def __init__(self, names: Sequence[str], geometry: SceneGeometry | None, *, rrd: Path | None = None,
                  grpc_url: str | None = None, name: str = "live", period_s: float = 0.25,
-                 convert: Callable[[list], dict[str, np.ndarray]] | None = None, lag: bool = True):
+                 convert: Callable[[list], dict[str, np.ndarray]] | None = None, lag: bool = True,
+                 truth: bool = True):
         rr = rerun_module("the view")
         self.rr, self.names, self.geometry, self.period, self.lag = rr, tuple(names), geometry, period_s, lag
         self.rec = rr.RecordingStream("wavekeep", recording_id=f"{name}-{time.time_ns()}")
         sinks = ([rr.FileSink(str(rrd))] if rrd is not None else []) + ([rr.GrpcSink(grpc_url)] if grpc_url else [])
         self.rec.set_sinks(*sinks, default_blueprint=blueprint(rr))
         self.rec.send_recording_name(name)
-        log_static(rr, self.rec, geometry)
+        log_static(rr, self.rec, geometry, truth)
         self.convert = convert or (lambda rows: columns_of(self.names, np.asarray(rows, dtype=float)))
         self._rows: list = []
         self._events: list[Event] = []
@@ -187,7 +188,8 @@ class MavlinkFeed:
         self.parser.robust_parsing = True
         self.collector = TlogCollector()
         self.station = None if station is None else [float(v) for v in station]   # [x, depth, θ] (m, m, rad)
-        self.recorder = LiveRecorder((), geometry, grpc_url=grpc_url, name=name, convert=self._columns, lag=False)
+        self.recorder = LiveRecorder((), geometry, grpc_url=grpc_url, name=name, convert=self._columns, lag=False,
+                                     truth=False)
         self.push = self.recorder.push
 
     def _columns(self, frames: list[bytes]) -> dict[str, np.ndarray]:

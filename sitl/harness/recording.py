@@ -265,7 +265,7 @@ def save_run(path: str | Path, cols: Columns, geometry: SceneGeometry | None, ev
     rec.set_sinks(*sinks, default_blueprint=blueprint(rr))
     try:
         rec.send_recording_name(name)
-        log_static(rr, rec, geometry)
+        log_static(rr, rec, geometry, truth="x" in cols)
         write_columns(rr, rec, cols, geometry, lag=lag)
         write_events(rr, rec, events)
     finally:

@@ -77,12 +77,13 @@ class SceneGeometry:
         return lo, hi
 
 
-def log_static(rr, rec, geometry: SceneGeometry | None) -> None:
+def log_static(rr, rec, geometry: SceneGeometry | None, truth: bool = True) -> None:
     """The static scene: the NED frame, the vehicle's box (true) and its ghost (estimate), the sea's
-    triangles, the thruster names, and how each series is drawn."""
+    triangles, and how each series is drawn (``truth``: the source has the true pose; a tlog has not)."""
     rec.log("world", rr.ViewCoordinates.FRD, static=True)    # NED: x forward (north), y right (east), z down
-    rec.log("world/vehicle/true/body", rr.Boxes3D(half_sizes=[VEHICLE_HALF_SIZE], colors=[(230, 200, 40)],
-                                                  fill_mode="solid"), static=True)
+    if truth:
+        rec.log("world/vehicle/true/body", rr.Boxes3D(half_sizes=[VEHICLE_HALF_SIZE], colors=[(230, 200, 40)],
+                                                      fill_mode="solid"), static=True)
     rec.log("world/vehicle/estimate/body", rr.Boxes3D(half_sizes=[VEHICLE_HALF_SIZE], colors=[(120, 230, 120, 70)],
                                                       fill_mode="solid"), static=True)
     if geometry is not None:
