@@ -78,6 +78,7 @@ def test_recording_read_back_covers_the_mission_and_equals_the_timeseries(short_
     x, y, z = vehicle["Transform3D:translation"][i][0]
     assert (x, y, z) == pytest.approx((ts["x"][k], 0.0, ts["z"][k]), rel=1e-5, abs=1e-6)
     qx, qy, qz, qw = vehicle["Transform3D:quaternion"][i][0]
+    assert (qx, qz) == (0.0, 0.0)                      # a pitch about the body's y axis only
     assert 2 * np.arctan2(qy, qw) == pytest.approx(ts["theta"][k], rel=1e-5, abs=1e-7)
     err = rec["/plots/error/x/true"]
     j = at(err, ts["t"][k])

@@ -17,11 +17,11 @@ import pytest
 
 pytest.importorskip("rerun", reason="the view extra (pip install 'wavekeep[view]') is not installed")
 
-from sitl.harness.cli import main  # noqa: E402
-from sitl.harness.ports import free_port  # noqa: E402
-from sitl.harness.view_sources import read_timeseries  # noqa: E402
+from test_view import read_rrd
 
-from test_view import read_rrd  # noqa: E402
+from sitl.harness.cli import main
+from sitl.harness.ports import free_port
+from sitl.harness.view_sources import read_timeseries
 
 pytestmark = pytest.mark.processes
 
