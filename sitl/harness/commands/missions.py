@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from . import options as o
+from . import view
 
 
 def add_parsers(sub) -> None:
@@ -19,6 +20,7 @@ def add_parsers(sub) -> None:
     o.add_params(p)
     o.add_world(p)
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
+    view.add_record_options(p)
     o.add_out(p)
     p.set_defaults(func=cmd_run)
 
@@ -67,6 +69,7 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
     print(format_table({r["label"]: r}))
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))
+    view.record(args, out, spec, r["seed"], result)
     return 0
 
 
