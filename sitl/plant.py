@@ -22,12 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
+from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
     hydrodynamic_load_terms,
-    motor_lag_factors,
     rk4_step,
     state_rates_at,
     strip_nodes,

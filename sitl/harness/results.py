@@ -102,7 +102,7 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
                 **ekf_consistency(log)},
         "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
         "saturated_fraction": float(np.mean(log[:, c["saturated"]] > 0.5)),   # ticks with an axis at ±τ_max
-        "controller": controller_summary(spec.controller, log),
+        "solver": controller_summary(spec.controller, log),
         "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
         "faults": control_stats.get("faults"),
     }
