@@ -361,9 +361,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if session is not None:
             session.close()
         if args.log:
-            header = "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s"
-            np.savetxt(args.log, np.array(rows).reshape(-1, 11), delimiter=",", header=header, comments="",
-                       fmt="%.17g")
+            from bridge.logfile import save_csv_whole
+            save_csv_whole(args.log, np.array(rows).reshape(-1, 11), "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s")
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     counts = " ".join(f"{k}={v}" for k, v in server.counters.as_dict().items())

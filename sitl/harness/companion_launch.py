@@ -33,8 +33,10 @@ from .launcher import (
     _GroundStation,
     _merge_logs,
     _wait_ready,
+    interrupt_leaves_nothing,
     prepare_run,
     start_world,
+    stop_children,
 )
 from .results import RunResult, mission_results
 from .run import write_run
@@ -62,6 +64,11 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
     """Run one mission with the companion flying the stand-in; returns the results document (also in DIR)."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch_companion(opt, method, companion_port, progress)
+
+
+def _launch_companion(opt: SimOptions, method: str, companion_port: int, progress) -> dict:
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
     for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):
@@ -69,13 +76,13 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
     if spec.ff:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
     children: list[_Child] = []
+    flown = False
     try:
         _start(opt, method, companion_port, sea.seed, duration, out, children)
         wall = _fly(opt, duration, f"sim --companion {method} {sea.name} {spec.label}", out, children, progress)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
+        flown = True
     finally:
-        statuses = {c.name: c.stop() for c in reversed(children)}
+        statuses = stop_children(children, opt.stop_timeout_s, interrupted=not flown)
     rate = mcfg["control_rate"]
     truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
     ticks = np.loadtxt(out / "companion_ticks.csv", delimiter=",", skiprows=1, ndmin=2)

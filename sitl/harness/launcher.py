@@ -26,6 +26,7 @@ import contextlib
 import json
 import os
 import select
+import shutil
 import signal
 import socket
 import struct
@@ -70,6 +71,7 @@ class SimOptions:
     gcs_port: int = 14550
     zenoh_port: int = 7447
     ready_timeout_s: float = 60.0
+    stop_timeout_s: float = 120.0  # wall s a child may take to write its log and exit once told to stop
     extra_params: list[str] = field(default_factory=list)
     plots: bool = True            # draw time_history.png (matplotlib: about a second)
 
@@ -90,6 +92,7 @@ class _Child:
         self._log = open(log, "w")  # noqa: SIM115 — lives as long as the child; closed in stop()
         self.proc = subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env,
                                      start_new_session=True)
+        self.killed = False
 
     def ready(self) -> bool:
         try:
@@ -100,7 +103,9 @@ class _Child:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def stop(self, timeout: float = 10.0) -> int | None:
+    def stop(self, timeout: float = 120.0) -> int | None:
+        """SIGTERM, then wait up to ``timeout`` (wall s) for the child to finish (it writes its log as it
+        exits); only a child still running then is killed (``killed``: its log is not written)."""
         if self.alive():
             self.proc.send_signal(signal.SIGTERM)
             try:
@@ -108,6 +113,7 @@ class _Child:
             except subprocess.TimeoutExpired:
                 os.killpg(self.proc.pid, signal.SIGKILL)
                 self.proc.wait(5)
+                self.killed = True
         self._log.close()
         return self.proc.returncode
 
@@ -146,8 +152,48 @@ def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
     return sea, mcfg, duration, np.array([sp["x"], sp["depth"], sp["pitch"]]), out
 
 
+def stop_children(children: list[_Child], timeout: float, interrupted: bool = False) -> dict[str, int | None]:
+    """Stop every child (the last started first), each given ``timeout`` s to write its log and exit; their
+    exit statuses. After a flight (not ``interrupted``), a child killed or failing is the run's failure: a
+    :class:`LaunchError` naming it, never a short log found later."""
+    statuses = {c.name: c.stop(timeout) for c in reversed(children)}
+    if not interrupted:
+        for c in children:
+            if c.killed:
+                raise LaunchError(f"{c.name} did not finish writing its log within {timeout:g} s of being told "
+                                  f"to stop (a very busy machine?) and was killed: the run is incomplete")
+            if c.proc.returncode != 0:
+                raise LaunchError(f"{c.name} exited with status {c.proc.returncode}:\n{c.tail()}")
+    return statuses
+
+
+@contextlib.contextmanager
+def interrupt_leaves_nothing(out: Path):
+    """Ctrl-C (a :class:`LaunchError` with status 130, or a KeyboardInterrupt) removes what the run wrote
+    in ``out`` — and ``out`` itself if the run created it — so no half-written folder is left; other
+    failures keep their logs, for diagnosis."""
+    created = not out.exists()
+    before = set(out.iterdir()) if out.is_dir() else set()
+    try:
+        yield
+    except (LaunchError, KeyboardInterrupt) as exc:
+        if isinstance(exc, KeyboardInterrupt) or exc.status == 130:
+            for f in set(out.iterdir()) - before if out.is_dir() else ():
+                shutil.rmtree(f) if f.is_dir() else f.unlink(missing_ok=True)
+            if created:
+                with contextlib.suppress(OSError):
+                    out.rmdir()
+            raise LaunchError("interrupted", 130) from None
+        raise
+
+
 def launch(opt: SimOptions, progress=None) -> dict:
     """Run one mission across processes; returns the results document (also written to DIR)."""
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch(opt, progress)
+
+
+def _launch(opt: SimOptions, progress) -> dict:
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
     _check_port(opt.plant_port, "plant")
@@ -156,23 +202,24 @@ def launch(opt: SimOptions, progress=None) -> dict:
         _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
     children: list[_Child] = []
     gcs = None
+    flown = False
     try:
         # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
         # socket instead of being lost, so the flight need not wait a second for the next one.
         gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
+        flown = True
     finally:
         if gcs is not None:
             gcs.close()
-        statuses = {c.name: c.stop() for c in reversed(children)}
+        statuses = stop_children(children, opt.stop_timeout_s, interrupted=not flown)
     rate = mcfg["control_rate"]
     log = _merge_logs_of(opt, sea, duration, rate, out)
     fw_stats = {}
     with contextlib.suppress(OSError):
         fw_stats = json.loads((out / "firmware_ticks.json").read_text())
+    _check_lockstep(opt, fw_stats)
     results = mission_results(sea, spec, duration, rate, setpoint, log, fw_stats)
     results.update({
         "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
@@ -182,6 +229,15 @@ def launch(opt: SimOptions, progress=None) -> dict:
     })
     write_run(RunResult(results, log), out, plots=opt.plots)
     return results
+
+
+def _check_lockstep(opt: SimOptions, fw_stats: dict) -> None:
+    """An unpaced run is the in-process run only if the plant answered every servo frame in time: a reply
+    later than ``SIM_JSON_TMO`` makes the firmware fly that tick blind. Said, never passed off as the run."""
+    late = (fw_stats.get("hal") or {}).get("timeouts", 0)
+    if not opt.speedup and late:
+        raise LaunchError(f"the plant's reply to {late} servo frame(s) came later than SIM_JSON_TMO, so the firmware "
+                          "flew those ticks without sensors: the run is not the lockstep one (raise SIM_JSON_TMO)")
 
 
 def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
@@ -246,6 +302,10 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
     # (a result must not depend on how fast the machine is).
     firmware += ["--set", "FS_GCS_ENABLE=0"]
+    if not opt.speedup:
+        # Unpaced, time is the plant's: a plant slow to answer (a busy machine) is not a silent one, so
+        # the firmware waits as long as the parameter allows (the user's --set still wins)
+        firmware += ["--set", f"SIM_JSON_TMO={LOCKSTEP_REPLY_WAIT_S!r}"]
     if not spec.ff:
         firmware += ["--no-forecast"]
     for name, value in spec.overrides.items():
@@ -255,6 +315,8 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     children.append(_Child("firmware", firmware, out / "firmware.log", env))
     _wait_ready(children, opt.ready_timeout_s)
 
+
+LOCKSTEP_REPLY_WAIT_S = 5.0   # s: SIM_JSON_TMO for an unpaced run (the parameter's upper limit)
 
 _SYSTEM_TIME, _ATTITUDE = 2, 30            # MAVLink message ids
 _CLOCK_IDS = (_SYSTEM_TIME, _ATTITUDE)      # the messages whose time_boot_ms ends the mission

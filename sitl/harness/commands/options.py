@@ -21,7 +21,8 @@ MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86400.0
 """Longest mission or record a command accepts (one day of simulated time)."""
 
-RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json")
+RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json",
+             "firmware_ticks.*", "companion_ticks.*", "plant_truth.csv", "network.yaml", "*.rrd")
 """What a run leaves in its folder: with ``--force`` these are removed before the new run writes."""
 
 
