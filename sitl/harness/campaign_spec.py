@@ -19,9 +19,10 @@ expands to one :class:`CampaignTask` per mission, each carrying the
       - {name: ff_exact, controller: cpd_ff, forecast: oracle}
       - {name: ff_15db, controller: cpd_ff, forecast: oracle, snr_db: 15, overrides: {WK_FF_GAIN: 1.0}}
 
-Parameter overrides are checked for form here (a ``WK_*`` name, a finite number);
-whether a value is allowed is the firmware parameter table's call at run time,
-as it would be over MAVLink, so a bad value fails its missions, not the campaign.
+Parameter overrides are checked here against the firmware's parameter table, as
+``wavekeep run --set`` checks them: an unknown name or a value out of its range is a
+ConfigError naming the dotted key (``variants[2].overrides.WK_FF_GAN``), before any
+mission flies.
 """
 from __future__ import annotations
 
@@ -179,12 +180,18 @@ def _overrides(raw: Any, file: str, key: str) -> dict[str, float]:
         return {}
     if not isinstance(raw, Mapping):
         raise ConfigError(file, key, f"got {raw!r:.60}; allowed: a mapping of WK_* parameter names to numbers")
+    from firmware_py.params import load_params
+
+    table = load_params()
     out: dict[str, float] = {}
     for name, value in raw.items():
         if not isinstance(name, str) or not _PARAM_NAME.match(name):
             raise ConfigError(file, f"{key}.{name}", "not a parameter name; allowed: WK_ followed by A-Z, 0-9, _")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ConfigError(file, f"{key}.{name}", f"got {value!r}; allowed: a finite number")
+        why = table.set(name, float(value))
+        if why:
+            raise ConfigError(file, f"{key}.{name}", why)
         out[name] = float(value)
     return out
 

@@ -96,8 +96,10 @@ def _save(fig: Figure, path: str | Path) -> Path:
 
 
 def _select(runs: Sequence[RunResult], case: str, label: str) -> RunResult:
-    """The one run with results["case"] == case and results["label"] == label, else ValueError."""
-    found = [r for r in runs if r.results.get("case") == case and r.results.get("label") == label]
+    """The one run of ``case`` whose label is ``label`` (before the ", ..." that names changed parameters:
+    ``reproduce --set`` flies all nine so), else ValueError."""
+    found = [r for r in runs if r.results.get("case") == case
+             and str(r.results.get("label", "")).split(", ")[0] == label]
     if len(found) != 1:
         have = sorted(f"{r.results.get('case')} / {r.results.get('label')}" for r in runs)
         what = "no run" if not found else f"{len(found)} runs"

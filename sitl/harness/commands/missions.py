@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 from pathlib import Path
@@ -54,11 +55,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     """One station-keeping mission in-process: prints the results, writes the run folder."""
     from ..metrics import format_table
     from ..provenance import write_run_record
-    from ..run import run_mission, write_run
+    from ..run import MissionDiverged, run_mission, write_run
 
     spec = o.run_spec(args)
     out = o.check_out(args.out, force=args.force)
-    result = run_mission(spec, progress=True)
+    try:
+        result = run_mission(spec, progress=True)
+    except MissionDiverged as exc:
+        if exc.result is not None:   # kept for diagnosis: the time series up to the last physical state
+            write_run(exc.result, out, plots=not args.no_plots)
+            write_run_record(out, args.argv, spec, seed=exc.result.results["seed"])
+        print(f"wavekeep run: {exc}" + (f"; wrote {out}" if exc.result is not None else ""), file=sys.stderr)
+        return 1
     r = result.results
     write_run(result, out, plots=not args.no_plots)
     write_run_record(out, args.argv, spec, seed=r["seed"])
@@ -111,11 +119,35 @@ def _reproduce_seeds(args: argparse.Namespace) -> int:
         raise o.UsageError("--params/--set are not supported with --seeds (a campaign); use a campaign YAML")
     o.check_out(args.out, kind="campaign")   # a campaign folder resumes: its files are kept
     _sigint_raises()
-    report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
-                             plots=not args.no_plots, scheduler=args.scheduler)
+    with _campaign_interrupt("reproduce"):
+        report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
+                                 plots=not args.no_plots, scheduler=args.scheduler)
     print(report_text(report))
     print(format_paper_comparison(report.summary))
-    return 0
+    return _campaign_status(report)
+
+
+@contextlib.contextmanager
+def _campaign_interrupt(command: str):
+    """Ctrl-C during a campaign: say how far it got and how to resume, exit 130 (via SystemExit)."""
+    from ..campaign import CampaignInterrupted
+
+    try:
+        yield
+    except CampaignInterrupted as exc:
+        print(f"wavekeep {command}: interrupted; {exc}", file=sys.stderr)
+        raise SystemExit(130) from None
+
+
+def _campaign_status(report) -> int:
+    """0 if every mission flew; else 1, the errors and, as the last line, how many failed and where."""
+    from ..campaign import failure_text
+
+    text = failure_text(report)
+    if text is None:
+        return 0
+    print(text, file=sys.stderr)
+    return 1
 
 
 def cmd_campaign(args: argparse.Namespace) -> int:
@@ -126,7 +158,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     spec = load_campaign_spec(args.spec)
     o.check_out(args.out, kind="campaign")
     _sigint_raises()
-    report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
-                          retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
+    with _campaign_interrupt("campaign"):
+        report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
+                              retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
     print(report_text(report))
-    return 0
+    return _campaign_status(report)

@@ -54,7 +54,9 @@ def add_parsers(sub) -> None:
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
-    o.add_out(p, required=False, default="runs/sim")
+    o.add_out(p, required=False, default=None,
+              what="run folder; default: runs/sim-CASE-CONTROLLER, with the forecast error, seed and duration "
+              "when given (e.g. runs/sim-W1-cpd_ff-60s)")
     p.set_defaults(func=cmd_sim)
 
     sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)",
@@ -80,6 +82,26 @@ def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
     return ports
 
 
+def default_out(args: argparse.Namespace) -> str:
+    """``sim``'s folder when no --out is given, named after the options that change the run: ``runs/sim-W1-cpd_ff``,
+    then ``-15dB`` / ``-dswp``, ``-seed7``, ``-60s``, ``-companion-rc`` when given (so two different runs never share
+    a folder)."""
+    from pathlib import Path
+
+    parts = ["sim", Path(args.case).stem if args.case.endswith((".yaml", ".yml")) else args.case, args.controller]
+    if args.forecast_snr_db is not None:
+        parts.append(f"{args.forecast_snr_db:g}dB")
+    if args.forecast != "oracle" and args.controller.startswith("cpd_ff"):
+        parts.append(args.forecast)
+    if args.seed is not None:
+        parts.append(f"seed{args.seed}")
+    if args.duration is not None:
+        parts.append(f"{args.duration:g}s")
+    if args.companion:
+        parts.append(f"companion-{args.companion}")
+    return str(Path("runs") / "-".join(parts))
+
+
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
     from ..launcher import LaunchError, SimOptions, launch
@@ -97,6 +119,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
+    if args.out is None:
+        args.out = default_out(args)
     out = o.check_out(args.out, force=args.force)
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
