@@ -37,7 +37,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bridge.configfile import ConfigError, Field, read_yaml, resolve_config, validate
+from bridge.configfile import ConfigError, Field, read_yaml, validate
 
 from .spec import CONTROLLERS, FORECAST_SOURCES, MAX_SEED, RunSpec
 
@@ -246,17 +246,20 @@ def _check_sea_overrides(variants: Sequence[Variant], cases: Sequence[str], file
 
 
 def _case(name: str, base: Path, file: str, key: str) -> str:
-    """A sea state name, or a path made absolute (relative paths are taken from the campaign file's folder)."""
+    """A sea state name, or a path made absolute (relative paths are taken from the campaign file's folder);
+    the sea config is validated here, so a bad one stops the campaign before any mission flies."""
+    from sitl.sea import load_sea_config
+
     p = Path(name)
     if p.suffix in (".yaml", ".yml"):
         p = p if p.is_absolute() or p.exists() else base / p
         if not p.exists():
             raise ConfigError(file, key, f"no such sea file {name!r} (looked in {base})")
-        return str(p.resolve())
+        name = str(p.resolve())
     try:
-        resolve_config(name, "sea")
+        load_sea_config(name)
     except ConfigError as exc:
-        raise ConfigError(file, key, exc.message) from None
+        raise ConfigError(file, key, f"{exc.key}: {exc.message}" if exc.key else exc.message) from None
     return name
 
 

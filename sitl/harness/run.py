@@ -179,6 +179,8 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
             log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
+    if diverged is not None and len(log) < 2:
+        raise MissionDiverged(str(diverged), None)
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
     log[:, COLUMN["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
     if forecast is not None:
@@ -188,8 +190,6 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     if errors:
         raise RuntimeError(f"control task raised {errors} time(s): {stats['tasks']['control'].get('last_error')}")
 
-    if diverged is not None and len(log) < 2:
-        raise MissionDiverged(str(diverged), None)
     results = mission_results(sea, spec, duration, rate, setpoint, log, stats)
     results["ekf"].update(rejected=dict(fw.ekf.rejected), accepted=dict(fw.ekf.accepted))
     results.update(wall_time_s=wall, speed_x_realtime=duration / wall if wall > 0 else None)

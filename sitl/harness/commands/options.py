@@ -30,11 +30,22 @@ class UsageError(Exception):
     """A bad option or combination of options: reported in one line, exit status 2."""
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows an option's default once: appended as ``(default: X)`` only where the help text does not already
+    say it, and never for options without one (None, False)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return text
+        return super()._get_help_string(action) or text
+
+
 class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (``wavekeep CMD: message``) and whose help shows defaults."""
 
     def __init__(self, *a: Any, **kw: Any):
-        kw.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kw.setdefault("formatter_class", HelpFormatter)
         super().__init__(*a, **kw)
 
     def error(self, message: str):

@@ -62,6 +62,8 @@ def add_parsers(sub) -> None:
     sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)",
                    add_help=False)
     sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)", add_help=False)
+    sub.add_parser("companion", help="the control task on a companion computer beside a real ArduSub, over "
+                   "MAVLink (see wavekeep companion -h, docs/companion.md)", add_help=False)
 
 
 SIM_PORTS = {"--plant-port": (9002, socket.SOCK_DGRAM, "plant"), "--gcs-port": (14550, socket.SOCK_DGRAM, "GCS"),
@@ -114,7 +116,6 @@ def cmd_sim(args: argparse.Namespace) -> int:
         for b in names[i + 1:]:
             if given[a] == given[b]:
                 raise o.UsageError(f"{a} and {b} are both {given[a]}: each process needs its own port")
-    ports = _sim_ports(args)
     spec = o.run_spec(args)
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
@@ -122,6 +123,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if args.out is None:
         args.out = default_out(args)
     out = o.check_out(args.out, force=args.force)
+    ports = _sim_ports(args)        # after every check: a bad input's one line comes alone
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
     try:
