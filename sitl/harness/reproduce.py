@@ -29,8 +29,8 @@ from .results import TIMESERIES_COLUMNS, RunResult, write_results
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "reproduce_seeds", "summarise",
-           "summary_statements"]
+__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "paper_tasks", "reproduce", "reproduce_seeds",
+           "summarise", "summary_statements"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
@@ -131,7 +131,7 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _tasks(seed: int | None, duration: float | None, plots: bool,
+def paper_tasks(seed: int | None, duration: float | None, plots: bool,
            overrides: dict[str, float] | None = None) -> list[CampaignTask]:
     """The nine missions; with ``plots`` each brings its time series back (Figs. 4 and 5, DIR/runs/)."""
     return [CampaignTask(f"{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}", VARIANT_KEYS[(v.controller, v.snr_db)],
@@ -147,7 +147,7 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
 
     ``out`` is created only when the runs are done: a failed or interrupted reproduction leaves nothing."""
     out = Path(out)
-    jobs = _tasks(seed, duration, plots, overrides)
+    jobs = paper_tasks(seed, duration, plots, overrides)
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()
     got: dict[str, TaskOutcome] = {}

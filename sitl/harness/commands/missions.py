@@ -101,7 +101,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"wavekeep reproduce: interrupted; stopped the cluster, wrote nothing to {out}", file=sys.stderr)
         return 130
-    write_run_record(out, args.argv, seed=args.seed, parameter_overrides=overrides, duration_s=args.duration)
+    from ..reproduce import paper_tasks
+    specs = [t.spec for t in paper_tasks(args.seed, args.duration, False, overrides)]
+    write_run_record(out, args.argv, specs, seed=args.seed, duration_s=args.duration)
     print(format_reproduce_table(doc["runs"], doc["summary"]))
     print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
           + ("" if args.no_plots else " and the figures"))
