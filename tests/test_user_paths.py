@@ -50,6 +50,7 @@ def test_reproduces_run_json_holds_specs_configs_and_parameters():
 def test_the_dashboard_a_campaign_prints_is_served():
     """The campaign prints the Dask dashboard's address; distributed serves it only with bokeh."""
     import bokeh  # noqa: F401  (a dependency: pyproject.toml)
+
     from sitl.harness.campaign import _has_bokeh
     assert _has_bokeh()
 
