@@ -68,7 +68,7 @@ class LiveSim:
 
     def _step_world(self, _slot) -> None:
         fw = self.firmware
-        held = fw.armed and all(AUTO_AXES.get(int(fw.mode), (False,)))   # the controller holds every axis
+        held = fw.armed and all(AUTO_AXES.get(fw.mode, (False, False, False)))   # the controller holds every axis
         ff = fw.last is not None and fw.last.ff_active
         self.setup.hal.step_world()
         s, tau = self.setup.plant.state, self.setup.plant.tau     # the thrusters' actual load over the slot

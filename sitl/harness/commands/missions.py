@@ -55,6 +55,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """One station-keeping mission in-process: prints the results, writes the run folder."""
     from ..metrics import format_table
     from ..provenance import write_run_record
+    from ..results import lapse_lines
     from ..run import MissionDiverged, run_mission, write_run
 
     spec = o.run_spec(args)
@@ -74,6 +75,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), "
           f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
     print(format_table({r["label"]: r}))
+    for line in lapse_lines(r):
+        print(line)
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))
     return 0
 

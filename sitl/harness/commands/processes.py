@@ -109,6 +109,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from ..launcher import LaunchError, SimOptions, launch
     from ..metrics import format_table
     from ..provenance import write_run_record
+    from ..results import lapse_lines
 
     given = {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
     names = [name for name, port in given.items() if port is not None]
@@ -139,6 +140,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
     print(format_table({r["label"]: r}))
+    for line in lapse_lines(r):
+        print(line)
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
           + ", mission.tlog, *.log, run.json")
     return 0
