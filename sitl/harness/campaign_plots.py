@@ -80,6 +80,13 @@ def plot_box(rows: Sequence[dict[str, Any]], spec: CampaignSpec, metric: str, ti
     return _save(fig, path)
 
 
+def ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The empirical CDF as steps (``where="post"``): from 0 at the smallest value (it is 0 below it, not 1/N)
+    up to 1 at the largest."""
+    x = np.sort(np.asarray(values, dtype=float))
+    return np.r_[x[:1], x], np.r_[0.0, np.arange(1, x.size + 1) / x.size]
+
+
 def plot_cdf_max_pitch(rows: Sequence[dict[str, Any]], spec: CampaignSpec, path: Path) -> Path:
     """Empirical CDF of the max |pitch error| (deg) over seeds, a line per (case, variant)."""
     fig, axes = _figure(1, 1, (8.0, 5.0))
@@ -87,10 +94,10 @@ def plot_cdf_max_pitch(rows: Sequence[dict[str, Any]], spec: CampaignSpec, path:
     colors = _colors(len(spec.variants))
     for i, case in enumerate(spec.cases):
         for j, v in enumerate(spec.variants):
-            x = np.sort(_values(rows, case, v.name, "max_abs_error_pitch") * _UNIT["pitch"][1])
-            if x.size:   # from 0 at the smallest value: the empirical CDF is 0 below it, not 1/N
-                ax.step(np.r_[x[0], x], np.r_[0.0, np.arange(1, x.size + 1) / x.size], where="post",
-                        color=colors[j], ls=_LS[i % len(_LS)], label=f"{case_name(case)} {v.name} (n = {x.size})")
+            x = _values(rows, case, v.name, "max_abs_error_pitch") * _UNIT["pitch"][1]
+            if x.size:
+                ax.step(*ecdf(x), where="post", color=colors[j], ls=_LS[i % len(_LS)],
+                        label=f"{case_name(case)} {v.name} (n = {x.size})")
     ax.set_xlabel("max |pitch error| over the mission (deg)")
     ax.set_ylabel("share of seeds ≤ x")
     ax.set_ylim(-0.02, 1.02)

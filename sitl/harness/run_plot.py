@@ -39,14 +39,17 @@ _HALF = 15.0   # s: the zoom's half width
 
 
 def envelope(t: np.ndarray, y: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Bin centres (s) and the minimum and maximum of ``y`` in each of ``bins`` equal spans of ``t``
-    (the samples themselves when there are fewer than 2 per bin)."""
+    """Bin centres (s) and the minimum and maximum of ``y`` over each of ``bins`` equal spans of ``t`` and its
+    neighbours (the samples themselves when there are fewer than 2 per bin)."""
     n = t.size
     if n < 2 * bins:
         return t, y, y
     edges = np.linspace(0, n, bins + 1).astype(int)
     lo = np.minimum.reduceat(y, edges[:-1])
     hi = np.maximum.reduceat(y, edges[:-1])
+    # over each bin and its two neighbours (15 s for 600 s): a bin shorter than a wave may miss its crest
+    lo = np.minimum(lo, np.minimum(np.r_[lo[:1], lo[:-1]], np.r_[lo[1:], lo[-1:]]))
+    hi = np.maximum(hi, np.maximum(np.r_[hi[:1], hi[:-1]], np.r_[hi[1:], hi[-1:]]))
     centres = 0.5 * (t[edges[:-1]] + t[np.minimum(edges[1:], n) - 1])
     return centres, lo, hi
 
