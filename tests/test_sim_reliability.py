@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sitl.harness.launcher import LaunchError, SimOptions, _Child, launch, stop_children
+from sitl.harness.children import Child, LaunchError, stop_children
+from sitl.harness.launcher import SimOptions, launch
 from sitl.harness.ports import free_port
 from sitl.harness.spec import RunSpec
 
@@ -37,9 +38,9 @@ while True:
 """
 
 
-def _slow_child(tmp_path: Path, delay: float) -> tuple[_Child, Path]:
+def _slow_child(tmp_path: Path, delay: float) -> tuple[Child, Path]:
     log = tmp_path / "ticks.csv"
-    child = _Child("firmware", [sys.executable, "-c", SLOW_WRITER.format(delay=delay), str(log)],
+    child = Child("firmware", [sys.executable, "-c", SLOW_WRITER.format(delay=delay), str(log)],
                    tmp_path / "child.log", env={})
     end = time.monotonic() + 30
     while not child.ready() and time.monotonic() < end:

@@ -26,11 +26,8 @@ import contextlib
 import json
 import os
 import select
-import shutil
-import signal
 import socket
 import struct
-import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -44,20 +41,14 @@ from firmware_py.modes import Mode
 from sitl.sea import Sea
 
 from .blas import ONE_BLAS_THREAD
+from .children import Child, LaunchError, check_port, interrupt_leaves_nothing, stop_children, wait_ready
 from .frame_clock import Frame, read_frames
-from .ports import port_is_free
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
 from .run_files import write_run
 from .spec import RunSpec
 
 __all__ = ["LaunchError", "SimOptions", "launch"]
-
-
-class LaunchError(RuntimeError):
-    def __init__(self, message: str, status: int = 1):
-        super().__init__(message)
-        self.status = status
 
 
 @dataclass
@@ -76,68 +67,6 @@ class SimOptions:
     plots: bool = True            # draw time_history.png (matplotlib: about a second)
 
 
-def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
-    """A clear error (exit status 2) if a loopback port the run needs is taken."""
-    if not port_is_free(port, kind):
-        proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
-        raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options", 2)
-
-
-class _Child:
-    """A child process whose stdout/stderr go to a log file; 'ready' is a line it prints."""
-
-    def __init__(self, name: str, argv: list[str], log: Path, env: dict):
-        self.name = name
-        self.log_path = log
-        self._log = open(log, "w")  # noqa: SIM115 — lives as long as the child; closed in stop()
-        self.proc = subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env,
-                                     start_new_session=True)
-        self.killed = False
-
-    def ready(self) -> bool:
-        try:
-            return "ready" in self.log_path.read_text()
-        except OSError:
-            return False
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self, timeout: float = 120.0) -> int | None:
-        """SIGTERM, then wait up to ``timeout`` (wall s) for the child to finish (it writes its log as it
-        exits); only a child still running then is killed (``killed``: its log is not written)."""
-        if self.alive():
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(5)
-                self.killed = True
-        self._log.close()
-        return self.proc.returncode
-
-    def tail(self, n: int = 8) -> str:
-        try:
-            return "\n".join(self.log_path.read_text().splitlines()[-n:])
-        except OSError:
-            return ""
-
-
-def _wait_ready(children: list[_Child], timeout: float) -> None:
-    end = time.monotonic() + timeout
-    pending = list(children)
-    while pending:
-        for c in list(pending):
-            if not c.alive():
-                raise LaunchError(f"{c.name} exited with status {c.proc.returncode} before it was ready:\n{c.tail()}")
-            if c.ready():
-                pending.remove(c)
-        if time.monotonic() > end:
-            raise LaunchError(f"{', '.join(c.name for c in pending)} not ready after {timeout:g} s")
-        time.sleep(0.05)
-
-
 def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
     """Validate the run's configs before anything starts: the sea, the mission config, its duration (s),
     the station [x, depth, θ], and the run folder (created)."""
@@ -152,41 +81,6 @@ def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
     return sea, mcfg, duration, np.array([sp["x"], sp["depth"], sp["pitch"]]), out
 
 
-def stop_children(children: list[_Child], timeout: float, interrupted: bool = False) -> dict[str, int | None]:
-    """Stop every child (the last started first), each given ``timeout`` s to write its log and exit; their
-    exit statuses. After a flight (not ``interrupted``), a child killed or failing is the run's failure: a
-    :class:`LaunchError` naming it, never a short log found later."""
-    statuses = {c.name: c.stop(timeout) for c in reversed(children)}
-    if not interrupted:
-        for c in children:
-            if c.killed:
-                raise LaunchError(f"{c.name} did not finish writing its log within {timeout:g} s of being told "
-                                  f"to stop (a very busy machine?) and was killed: the run is incomplete")
-            if c.proc.returncode != 0:
-                raise LaunchError(f"{c.name} exited with status {c.proc.returncode}:\n{c.tail()}")
-    return statuses
-
-
-@contextlib.contextmanager
-def interrupt_leaves_nothing(out: Path):
-    """Ctrl-C (a :class:`LaunchError` with status 130, or a KeyboardInterrupt) removes what the run wrote
-    in ``out`` — and ``out`` itself if the run created it — so no half-written folder is left; other
-    failures keep their logs, for diagnosis."""
-    created = not out.exists()
-    before = set(out.iterdir()) if out.is_dir() else set()
-    try:
-        yield
-    except (LaunchError, KeyboardInterrupt) as exc:
-        if isinstance(exc, KeyboardInterrupt) or exc.status == 130:
-            for f in set(out.iterdir()) - before if out.is_dir() else ():
-                shutil.rmtree(f) if f.is_dir() else f.unlink(missing_ok=True)
-            if created:
-                with contextlib.suppress(OSError):
-                    out.rmdir()
-            raise LaunchError("interrupted", 130) from None
-        raise
-
-
 def launch(opt: SimOptions, progress=None) -> dict:
     """Run one mission across processes; returns the results document (also written to DIR)."""
     with interrupt_leaves_nothing(Path(opt.out)):
@@ -196,11 +90,11 @@ def launch(opt: SimOptions, progress=None) -> dict:
 def _launch(opt: SimOptions, progress) -> dict:
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
-    _check_port(opt.plant_port, "plant")
-    _check_port(opt.gcs_port, "GCS")
+    check_port(opt.plant_port, "plant")
+    check_port(opt.gcs_port, "GCS")
     if spec.ff:
-        _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
-    children: list[_Child] = []
+        check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
+    children: list[Child] = []
     gcs = None
     flown = False
     try:
@@ -240,7 +134,7 @@ def _check_lockstep(opt: SimOptions, fw_stats: dict) -> None:
                           "flew those ticks without sensors: the run is not the lockstep one (raise SIM_JSON_TMO)")
 
 
-def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[Child],
                 wait_plant: bool = True) -> tuple[list[str], list[str], dict[str, str], Path]:
     """The forecast service (C-PD+FF only) and the plant, each waited for until ready (the plant only if
     ``wait_plant``: a caller may start the vehicle alongside it and wait for both).
@@ -267,21 +161,21 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children
             fc.append("--deep-water")
         if spec.snr_db is not None:
             fc += ["--forecast-snr-db", str(spec.snr_db)]
-        children.append(_Child("forecast", fc, out / "forecast.log", env))
-        _wait_ready(children, opt.ready_timeout_s)
+        children.append(Child("forecast", fc, out / "forecast.log", env))
+        wait_ready(children, opt.ready_timeout_s)
     plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
              "--log", str(out / "plant_truth.csv"), *sea_set]
     if spec.true_vehicle:
         plant += ["--true-vehicle", spec.true_vehicle]
     if spec.ff:
         plant += ["--buoy-network", str(netcfg)]
-    children.append(_Child("plant", plant, out / "plant.log", env))
+    children.append(Child("plant", plant, out / "plant.log", env))
     if wait_plant:
-        _wait_ready(children, opt.ready_timeout_s)
+        wait_ready(children, opt.ready_timeout_s)
     return cli, configs, env, netcfg
 
 
-def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[Child],
                      water_depth: float) -> None:
     """The world (:func:`start_world`) and the firmware, waited for until ready (told the site's
     ``water_depth`` (m) for its DVL model).
@@ -312,8 +206,8 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
         firmware += ["--set", f"{name}={value!r}"]
     for s in opt.extra_params:
         firmware += ["--set", s]
-    children.append(_Child("firmware", firmware, out / "firmware.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    children.append(Child("firmware", firmware, out / "firmware.log", env))
+    wait_ready(children, opt.ready_timeout_s)
 
 
 LOCKSTEP_REPLY_WAIT_S = 5.0   # s: SIM_JSON_TMO for an unpaced run (the parameter's upper limit)
@@ -328,7 +222,7 @@ _BATCH_S = 0.005                            # s: the flight loop's wait for more
 class _GroundStation:
     """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
 
-    def __init__(self, port: int, tlog: Path, children: list[_Child]):
+    def __init__(self, port: int, tlog: Path, children: list[Child]):
         os.environ["MAVLINK20"] = "1"
         from pymavlink import mavutil
         self.mavlink = mavutil.mavlink
