@@ -61,11 +61,7 @@ def cmd_live(args: argparse.Namespace) -> int:
             key = load_signing_key(args.signing_key)
         except (OSError, ValueError) as exc:
             raise o.UsageError(f"--signing-key {args.signing_key}: {exc}") from None
-    from bridge.schemas import load_mission_config, load_vehicle_config
-    from sitl.sea import load_sea_config
-    load_sea_config(args.case, spec.sea)     # a bad config is refused before the log is created
-    load_mission_config(args.mission)
-    load_vehicle_config(args.vehicle)
+    o.check_configs(args, spec)     # a bad config is refused before the log is created
     log_path = Path(args.log or f"runs/live-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.log")
     try:
         log_path.parent.mkdir(parents=True, exist_ok=True)

@@ -253,6 +253,17 @@ def run_spec(args: argparse.Namespace) -> Any:
         raise UsageError(msg) from None
 
 
+def check_configs(args: argparse.Namespace, spec: Any) -> None:
+    """Load the sea (with the spec's overrides), mission and vehicle configs a run will fly, so a bad one is
+    refused (a ConfigError: one line, exit 2) before the command prints or writes anything."""
+    from bridge.schemas import load_mission_config, load_vehicle_config
+    from sitl.sea import load_sea_config
+
+    load_sea_config(spec.case, spec.sea)
+    load_mission_config(spec.mission)
+    load_vehicle_config(spec.vehicle)
+
+
 def _key_values(items: list[str] | None, option: str) -> dict[str, Any]:
     """``KEY=VALUE`` items, each value read as YAML (``10``, ``0.3``, ``true``); a usage error names ``option``."""
     from bridge.configfile import parse_key_values

@@ -123,6 +123,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
     if args.out is None:
         args.out = default_out(args)
+    o.check_configs(args, spec)
     out = o.check_out(args.out, force=args.force)
     ports = _sim_ports(args)        # after every check: a bad input's one line comes alone
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
