@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-__all__ = ["git_commit", "package_version", "run_record", "version_string", "write_run_record"]
+__all__ = ["configs_record", "git_commit", "package_version", "run_record", "version_string", "write_run_record"]
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -67,13 +67,18 @@ def run_record(argv: list[str], spec: Any = None, seed: int | None = None, **ext
 
 def _configs(spec: Any) -> dict[str, Any]:
     """The resolved sea, mission and vehicle configs (and the true vehicle, if any) a RunSpec flies."""
+    return configs_record(spec.case, spec.mission, spec.vehicle, spec.sea, spec.true_vehicle)
+
+
+def configs_record(case: str, mission: str, vehicle: str, sea: Any = None, true_vehicle: str | None = None) -> dict:
+    """The resolved sea (with ``sea`` overrides), mission and vehicle configs, and the true vehicle if given."""
     from bridge.schemas import load_mission_config, load_true_vehicle, load_vehicle_config
     from sitl.sea import load_sea_config
 
-    configs = {"sea": load_sea_config(spec.case, spec.sea), "mission": load_mission_config(spec.mission),
-               "vehicle": load_vehicle_config(spec.vehicle)}
-    if spec.true_vehicle:
-        configs["true_vehicle"] = load_true_vehicle(spec.true_vehicle)
+    configs = {"sea": load_sea_config(case, sea), "mission": load_mission_config(mission),
+               "vehicle": load_vehicle_config(vehicle)}
+    if true_vehicle:
+        configs["true_vehicle"] = load_true_vehicle(true_vehicle)
     return configs
 
 
