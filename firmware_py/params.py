@@ -191,7 +191,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "1 preview MPC (falls back to C-PD+FF); read at boot", ptype="INT8"),
     ParamDef("WK_MPC_N", 2, 80, "", "MPC: horizon steps (the control period first, then WK_MPC_DT each)",
              ptype="INT8"),
-    ParamDef("WK_MPC_DT", 0.05, 1.0, "s", "MPC: horizon step after the first"),
+    ParamDef("WK_MPC_DT", 0.02, 0.15, "s", "MPC: horizon step after the first (the RK4 step of its prediction)"),
+    ParamDef("WK_MPC_BLK", 1, 40, "", "MPC: steps each optimised demand is held over, after the first step "
+             "(move blocking)", ptype="INT8"),
     *_axes("WK_MPC_Q", 0.0, 1e6, ("1/(m^2 s)", "1/(m^2 s)", "1/(rad^2 s)"), "MPC: weight on the position error"),
     *_axes("WK_MPC_QV", 0.0, 1e6, ("s/m^2", "s/m^2", "s/rad^2"), "MPC: weight on the velocity"),
     ParamDef("WK_MPC_QT", 0.0, 100.0, "s", "MPC: extra weight on the horizon's last state, as seconds of "
@@ -202,6 +204,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              ptype="INT16"),
     ParamDef("WK_MPC_BUDGET", 0.01, 1000.0, "ms", "MPC: compute budget per tick on the wall clock (beyond it: "
              "the FF fallback); lockstep SITL counts iterations only"),
+    ParamDef("WK_MPC_VEL_TC", 0.0, 5.0, "s", "MPC: low-pass time constant on the estimated surge and heave "
+             "velocity its horizon starts from; 0 none"),
     ParamDef("WK_MPC_DIST", 0, 1, "", "MPC: the estimator's disturbance wrench in the prediction (1) or not (0)",
              ptype="INT8"),
     # Motors and mixer

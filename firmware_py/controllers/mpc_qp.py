@@ -1,4 +1,4 @@
-"""The preview MPC's quadratic programme: condensed on the linearised horizon, solved by OSQP.
+"""The preview MPC's quadratic programme: condensed on the linearised horizon, solved by DAQP.
 
 Around a nominal plan V̄ (N, 3) (the last plan, shifted by a tick) and its rollout X̄ (N+1, 6), the
 horizon's linearisation (:func:`~bridge.models.horizon.linearise_horizon`) gives
@@ -13,34 +13,31 @@ state weights, D the first difference. The constraints are the thrusters' limits
 command, c_k = (v_k − e_k v_{k−1}) / (1 − e_k) in the :class:`~firmware_py.wrench_limits.WrenchPolytope`
 (the wrench the mixer sends to make the motors reach v_k; v_k, a convex combination of commands and the
 thrust now, then lies within them too). Their matrix is the same every tick; only P, q and the bounds
-change, so OSQP keeps its sparsity pattern and is warm-started with the last duals. One QP a tick: a
-real-time iteration of sequential quadratic programming (Diehl et al., 2005).
+change. One QP a tick: a real-time iteration of sequential quadratic programming (Diehl et al., 2005).
 
-OSQP is set up for repeatable results: a fixed ``adaptive_rho_interval`` (its default adapts on the
-measured setup time, which would make a run depend on the machine), no time limit (the budget is
-counted in iterations, ``max_iter``), no polishing.
+The solver is DAQP (Arnström, Bemporad & Axehill, "A dual active-set solver for embedded quadratic
+programming using recursive LDLᵀ updates", IEEE TAC 2022), a dense dual active-set method written for
+MPC: it solves the QP exactly, in a handful of iterations when warm-started with the last active set,
+and deterministically (no timing enters it; the budget is its iteration limit). docs/mpc.md gives the
+measurements against OSQP (ADMM), qpOASES and DAQP through CasADi.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import daqp
 import numpy as np
-import osqp
-import scipy.sparse as sp
 
 from bridge.models import kernels
 
 from ..control import SolveStatus
 from ..wrench_limits import WrenchPolytope
 
-__all__ = ["CondensedQP", "HorizonCost", "QPResult", "prediction_matrix"]
+__all__ = ["CondensedQP", "HorizonCost", "QPResult", "block_expansion", "prediction_matrix"]
 
-_STATUS = {osqp.constant("OSQP_SOLVED"): SolveStatus.SOLVED,
-           osqp.constant("OSQP_SOLVED_INACCURATE"): SolveStatus.SOLVED,
-           osqp.constant("OSQP_MAX_ITER_REACHED"): SolveStatus.TIMEOUT,
-           osqp.constant("OSQP_TIME_LIMIT_REACHED"): SolveStatus.TIMEOUT,
-           osqp.constant("OSQP_PRIMAL_INFEASIBLE"): SolveStatus.INFEASIBLE,
-           osqp.constant("OSQP_PRIMAL_INFEASIBLE_INACCURATE"): SolveStatus.INFEASIBLE}
+_STATUS = {1: SolveStatus.SOLVED, 2: SolveStatus.SOLVED,      # DAQP's exit flags: optimal, soft optimal
+           -1: SolveStatus.INFEASIBLE, -4: SolveStatus.TIMEOUT}  # infeasible, iteration limit
+_ACTIVE_UPPER, _ACTIVE_LOWER = 1, 3   # DAQP's constraint sense: active (1), at its lower bound (+2)
 
 
 @dataclass(frozen=True)
@@ -80,50 +77,56 @@ def prediction_matrix(A: np.ndarray, B: np.ndarray, E: np.ndarray) -> np.ndarray
     return S.reshape(6 * n, 3 * n)
 
 
-class CondensedQP:
-    """The QP of one horizon shape (N steps of ``dt`` s, lag factors ``e``, input scale ``scale``, limits ``poly``)."""
+def block_expansion(n: int, block: int) -> np.ndarray:
+    """T (3n, 3B): per-step inputs from per-block ones, the first step alone and then ``block`` steps a block
+    (move blocking: the optimiser chooses B ≪ n demands, each held over its steps)."""
+    owner = np.concatenate([[0], 1 + (np.arange(n - 1) // max(1, block))]) if n > 0 else np.zeros(0, int)
+    T = np.zeros((3 * n, 3 * (int(owner.max()) + 1 if n else 0)))
+    for k, b in enumerate(owner):
+        T[3 * k:3 * k + 3, 3 * b:3 * b + 3] = np.eye(3)
+    return T
 
-    def __init__(self, dt: np.ndarray, e: np.ndarray, scale: np.ndarray, poly: WrenchPolytope, max_iter: int):
+
+class CondensedQP:
+    """The QP of one horizon shape: N steps of ``dt`` s with lag factors ``e``, inputs normalised by ``scale``
+    and held over blocks of ``block`` steps after the first, within the wrench limits ``poly``."""
+
+    def __init__(self, dt: np.ndarray, e: np.ndarray, scale: np.ndarray, poly: WrenchPolytope, max_iter: int,
+                 block: int = 1):
         self.dt, self.e = np.asarray(dt, dtype=float), np.asarray(e, dtype=float)
         self.n = n = self.dt.size
         self.scale = np.asarray(scale, dtype=float)
         self.poly = poly
-        m = 3 * n
-        D = np.eye(m) - np.eye(m, k=-3)
-        self._D = D
-        # The command's constraint rows: N_f diag(s) (z_k − e_k z_{k−1}) / (1 − e_k), per step and facet
+        self._T = T = block_expansion(n, block)
+        nb = T.shape[1] // 3
+        self._DT = (np.eye(3 * n) - np.eye(3 * n, k=-3)) @ T          # the change of per-step inputs, per block
+        # The commands' constraint rows, at each block's first step k_b (within a block the demand is held,
+        # so the command is the demand there): N_f diag(s) (z_b − e_k z_{b−1}) / (1 − e_k)
+        self._firsts = np.flatnonzero(np.concatenate([[True], np.diff(T.argmax(axis=1)[::3]) != 0]))
         nf = poly.normals.shape[0]
         Ns = poly.normals * self.scale        # (F, 3)
-        Ac = np.zeros((nf * n, m))
-        for k in range(n):
+        Ac = np.zeros((nf * nb, 3 * nb))
+        for b, k in enumerate(self._firsts):
             g = 1.0 / (1.0 - self.e[k])
-            Ac[k * nf:(k + 1) * nf, 3 * k:3 * k + 3] = g * Ns
-            if k:
-                Ac[k * nf:(k + 1) * nf, 3 * (k - 1):3 * k] = -g * self.e[k] * Ns
-        self._Ac = Ac
-        rows, cols = np.triu_indices(m)
-        order = np.lexsort((rows, cols))        # CSC order of the upper triangle: by column, then row
-        self._tri = rows[order], cols[order]
-        pattern = sp.csc_matrix((np.ones(rows.size), (self._tri[0], self._tri[1])), shape=(m, m))
-        self._solver = osqp.OSQP()
-        self._solver.setup(pattern, np.zeros(m), sp.csc_matrix(Ac), -np.ones(nf * n), np.ones(nf * n),
-                           verbose=False, warm_starting=True, polishing=False, adaptive_rho=True,
-                           adaptive_rho_interval=25, max_iter=int(max_iter), eps_abs=1e-4, eps_rel=1e-4,
-                           check_termination=5)
-        self._y: np.ndarray | None = None
+            Ac[b * nf:(b + 1) * nf, 3 * b:3 * b + 3] = g * Ns
+            if b:
+                Ac[b * nf:(b + 1) * nf, 3 * (b - 1):3 * b] = -g * self.e[k] * Ns
+        self._Ac = np.ascontiguousarray(Ac)
+        self._max_iter = int(max_iter)
+        self._sense: np.ndarray | None = None      # the last active set (DAQP's warm start)
 
     def set_max_iter(self, max_iter: int) -> None:
-        self._solver.update_settings(max_iter=int(max_iter))
+        self._max_iter = int(max_iter)
 
     def forget(self) -> None:
         """Drop the warm start (a reset)."""
-        self._y = None
+        self._sense = None
 
     def solve(self, X: np.ndarray, S: np.ndarray, V: np.ndarray, tau0: np.ndarray, ref: np.ndarray,
               u_trim: np.ndarray, cost: HorizonCost) -> QPResult:
         """The demands that minimise the cost about the nominal ``V`` (rollout ``X``, prediction matrix ``S``)."""
-        n, s = self.n, self.scale
-        St = S * np.tile(s, n)                                  # columns in normalised input
+        n, s, T = self.n, self.scale, self._T
+        St = (S * np.tile(s, n)) @ T                             # per block, in normalised input
         w = np.outer(self.dt, cost.q)                            # Δ_{k−1} Q on x_k, k = 1..N
         w[-1] += cost.q_terminal * cost.q
         w = w.ravel()
@@ -132,30 +135,31 @@ class CondensedQP:
         u_prev[:3] = tau0 / s
         r_diag = (np.outer(self.dt, cost.r)).ravel()
         rd_diag = (np.outer(1.0 / self.dt, cost.rd)).ravel()
-        D = self._D
-        P = St.T @ (St * w[:, None]) + np.diag(r_diag) + D.T @ (D * rd_diag[:, None])
+        DT = self._DT
+        P = St.T @ (St * w[:, None]) + T.T @ (T * r_diag[:, None]) + DT.T @ (DT * rd_diag[:, None])
         err = (X[1:] - ref).ravel()
-        q = St.T @ (w * err) + r_diag * (U - np.tile(u_trim, n)) + D.T @ (rd_diag * (D @ U - u_prev))
-        C = self._nominal_commands(V, tau0)
+        dU = U - np.roll(U, 3)
+        dU[:3] = U[:3] - u_prev[:3]
+        q = St.T @ (w * err) + T.T @ (r_diag * (U - np.tile(u_trim, n))) + DT.T @ (rd_diag * dU)
+        C = self._nominal_commands(V, tau0)[self._firsts]
         lim = self.poly.half[None, :]
-        offset = (C - self.poly.centre) @ self.poly.normals.T       # (N, F)
+        offset = (C - self.poly.centre) @ self.poly.normals.T       # (B, F)
         lo, hi = (-lim - offset).ravel(), (lim - offset).ravel()
         if not (np.isfinite(P).all() and np.isfinite(q).all() and np.isfinite(lo).all()):
             return QPResult(SolveStatus.NONFINITE, None, 0)
-        solver = self._solver
-        solver.update(Px=P[self._tri], q=q, l=lo, u=hi)
-        solver.warm_start(x=np.zeros(3 * n), y=self._y if self._y is not None else np.zeros(lo.size))
-        res = solver.solve(raise_error=False)
-        status = _STATUS.get(res.info.status_val, SolveStatus.FAILED)
+        kw = {} if self._sense is None else {"sense": self._sense}
+        z, _, flag, info = daqp.solve(P, q, self._Ac, hi, lo, iter_limit=self._max_iter, **kw)
+        iterations = int(info["iterations"])
+        status = _STATUS.get(int(flag), SolveStatus.FAILED)
+        z = np.asarray(z, dtype=float)
+        if status == SolveStatus.SOLVED and not np.isfinite(z).all():
+            status = SolveStatus.NONFINITE
         if status != SolveStatus.SOLVED:
-            self._y = None
-            return QPResult(status, None, int(res.info.iter))
-        z = np.asarray(res.x, dtype=float)
-        if not np.isfinite(z).all():
-            self._y = None
-            return QPResult(SolveStatus.NONFINITE, None, int(res.info.iter))
-        self._y = np.asarray(res.y, dtype=float).copy()
-        return QPResult(SolveStatus.SOLVED, V + z.reshape(n, 3) * s, int(res.info.iter))
+            self._sense = None
+            return QPResult(status, None, iterations)
+        lam = np.asarray(info["lam"], dtype=float)
+        self._sense = np.where(lam > 0.0, _ACTIVE_UPPER, np.where(lam < 0.0, _ACTIVE_LOWER, 0)).astype(np.int32)
+        return QPResult(SolveStatus.SOLVED, V + (T @ z).reshape(n, 3) * s, iterations)
 
     def _nominal_commands(self, V: np.ndarray, tau0: np.ndarray) -> np.ndarray:
         """c_k = (v_k − e_k v_{k−1}) / (1 − e_k) of the nominal plan (N, 3), v_{−1} = the thrust now."""

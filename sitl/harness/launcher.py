@@ -30,6 +30,7 @@ import socket
 import struct
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -65,6 +66,7 @@ class SimOptions:
     stop_timeout_s: float = 120.0  # wall s a child may take to write its log and exit once told to stop
     extra_params: list[str] = field(default_factory=list)
     plots: bool = True            # draw time_history.png (matplotlib: about a second)
+    downlink_tap: Callable[[bytes], None] | None = None   # each MAVLink frame the GCS hears (the live view)
 
 
 def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
@@ -100,7 +102,7 @@ def _launch(opt: SimOptions, progress) -> dict:
     try:
         # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
         # socket instead of being lost, so the flight need not wait a second for the next one.
-        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
+        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
         flown = True
@@ -222,7 +224,7 @@ _BATCH_S = 0.005                            # s: the flight loop's wait for more
 class _GroundStation:
     """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
 
-    def __init__(self, port: int, tlog: Path, children: list[Child]):
+    def __init__(self, port: int, tlog: Path, children: list[Child], tap: Callable[[bytes], None] | None = None):
         os.environ["MAVLINK20"] = "1"
         from pymavlink import mavutil
         self.mavlink = mavutil.mavlink
@@ -238,6 +240,7 @@ class _GroundStation:
         self._epoch_us: int | None = None            # Unix µs at vehicle time 0, from SYSTEM_TIME
         self._vehicle_us = 0
         self._stamp = 0
+        self.tap = tap                                # called with each frame logged (one append: the live view)
         self.conn.mav.set_send_callback(lambda msg: self._log(msg))
 
     def _log(self, m) -> None:
@@ -258,6 +261,8 @@ class _GroundStation:
             self._epoch_us = int(time.time() * 1e6)
         self._stamp = max(self._stamp, self._epoch_us + self._vehicle_us)
         self.tlog.write(_TLOG_STAMP.pack(self._stamp & ~3) + buf)
+        if self.tap is not None:
+            self.tap(buf)
 
     def _keep_alive(self) -> None:
         """Heartbeat every 0.5 s; a LaunchError if a child has died."""

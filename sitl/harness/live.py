@@ -54,6 +54,7 @@ class LiveSim:
         self.history: list[list[float]] = []   # per slot: HISTORY_COLUMNS (for the summary)
         self.n_ticks = None if duration is None else int(round(duration * rate))
         self.done = threading.Event()          # set when the loop has stopped (n_ticks flown, or stop())
+        self.on_slot: Callable[[object, object], None] | None = None   # (plant state, tick record): the view's
         if on_event is not None:   # the firmware's STATUSTEXT events (mode, arming, failsafes) as the link sends them
             send = self.link.statustext
 
@@ -74,6 +75,9 @@ class LiveSim:
         s, tau = self.setup.plant.state, self.setup.plant.tau     # the thrusters' actual load over the slot
         self.history.append([s.t, *s.eta, *fw.setpoint, *tau.tolist(), float(held), float(fw.armed),
                              float(fw.mode), float(ff)])
+        last = fw.last
+        if self.on_slot is not None and last is not None:
+            self.on_slot(s, last)
 
     def summary(self, label: str = "") -> dict:
         """What the flight was (:func:`live_summary`)."""

@@ -7,7 +7,7 @@ the same ``timeseries.csv`` columns.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -40,6 +40,8 @@ COLUMN = {c: i for i, c in enumerate(TIMESERIES_COLUMNS)}
 class RunResult:
     results: dict[str, Any]     # the results.json document
     timeseries: np.ndarray      # (ticks, len(TIMESERIES_COLUMNS))
+    events: list[tuple[float, int, str]] = field(default_factory=list)   # (t s, MAV_SEVERITY, text): in-process
+    forecasts: list[tuple[float, Any]] | None = None    # (t s, WaveComponents) as handed over: DSWP in-process
 
 
 def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:

@@ -73,6 +73,7 @@ class DSWPFeeder:
         self._next = 0.0
         self.seq = 0
         self.failed = 0
+        self.history: list[tuple[float, Any]] = []   # (t, the forecast's components) as handed over: the view's
 
     def advance(self, t: float) -> None:
         if t + 1e-9 < self._next:
@@ -88,6 +89,7 @@ class DSWPFeeder:
             self.failed += 1
             return
         self.fw.forecast.offer(f)
+        self.history.append((t, f.components()))
 
 
 def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_eta=None,
@@ -160,6 +162,7 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     take_off(m)
     n -= 1
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
+    events: list[tuple[float, int, str]] = []   # the firmware's STATUSTEXTs (mode, arming, failsafes), for the view
     wall0 = time.perf_counter()
     diverged: PlantDiverged | None = None
     with ProgressBar(n, f"{sea.name} {spec.label}", enabled=None if progress else False) as bar:
@@ -178,6 +181,9 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
             log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
+            if fw.events:
+                events.extend((truth.t, severity, text) for severity, text in fw.events)
+                fw.events.clear()
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
     if diverged is not None and len(log) < 2:
@@ -194,10 +200,11 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     results = mission_results(sea, spec, duration, rate, setpoint, log, stats)
     results["ekf"].update(rejected=dict(fw.ekf.rejected), accepted=dict(fw.ekf.accepted))
     results.update(wall_time_s=wall, speed_x_realtime=duration / wall if wall > 0 else None)
+    result = RunResult(results, log, events, m.feeder.history if m.feeder is not None else None)
     if diverged is not None:
         results.update(status="diverged", error=str(diverged))
-        raise MissionDiverged(str(diverged), RunResult(results, log))
-    return RunResult(results, log)
+        raise MissionDiverged(str(diverged), result)
+    return result
 
 
 class MissionDiverged(RuntimeError):

@@ -162,8 +162,9 @@ class RunSpec:
     @property
     def label(self) -> str:
         """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``,
-        ``MPC exact``, then whatever differs from the defaults — the law (``paper law``), the estimator (``paper EKF``), and each
-        other changed parameter (``WK_FF_GAIN=0.8``) — so two runs that flew differently never share a label."""
+        ``MPC exact``, then whatever differs from the defaults — the law (``paper law``), the estimator
+        (``paper EKF``), and each other changed parameter (``WK_FF_GAIN=0.8``) — so two runs that flew
+        differently never share a label."""
         dob = "+DOB" if self.dob else ""
         law = "MPC" if self.mpc else f"C-PD+FF{dob}"
         if not self.ff:

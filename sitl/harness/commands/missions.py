@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from . import options as o
+from . import view
 
 
 def add_parsers(sub) -> None:
@@ -20,6 +21,7 @@ def add_parsers(sub) -> None:
     o.add_params(p)
     o.add_world(p)
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
+    view.add_record_options(p)
     o.add_out(p)
     p.set_defaults(func=cmd_run)
 
@@ -78,6 +80,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     for line in lapse_lines(r):
         print(line)
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))
+    view.record(args, out, spec, r["seed"], result)
     return 0
 
 

@@ -6,6 +6,7 @@ import socket
 import sys
 
 from . import options as o
+from . import view
 
 
 def add_parsers(sub) -> None:
@@ -54,6 +55,7 @@ def add_parsers(sub) -> None:
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
+    view.add_record_options(p, live=True)
     o.add_out(p, required=False, default=None,
               what="run folder; default: runs/sim-CASE-CONTROLLER, with the forecast error, seed and duration "
               "when given (e.g. runs/sim-W1-cpd_ff-60s)")
@@ -120,9 +122,6 @@ def default_out(args: argparse.Namespace) -> str:
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
     from ..launcher import LaunchError, SimOptions, launch
-    from ..metrics import format_table
-    from ..provenance import write_run_record
-    from ..results import lapse_lines
 
     given = _given_ports(args)
     names = [name for name, port in given.items() if port is not None]
@@ -137,19 +136,39 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if args.out is None:
         args.out = default_out(args)
     o.check_configs(args, spec)
+    view.require_view(args)
     out = o.check_out(args.out, force=args.force)
     ports = _sim_ports(args)      # after every check: a refused command says one line, whatever holds the ports
-    opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
-                     gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
+    live = view.SimView(args, spec) if args.view else None
     try:
-        if args.companion:
-            from ..companion_launch import launch_companion
-            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
-        else:
-            r = launch(opt, progress=None)
-    except LaunchError as exc:
-        print(f"wavekeep sim: {exc}", file=sys.stderr)
-        return exc.status
+        opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
+                         gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots,
+                         downlink_tap=live.tap if live else None)
+        try:
+            if args.companion:
+                from ..companion_launch import launch_companion
+                r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+            else:
+                r = launch(opt, progress=None)
+        except LaunchError as exc:
+            print(f"wavekeep sim: {exc}", file=sys.stderr)
+            return exc.status
+        finally:
+            if live:
+                live.close()
+        _report_sim(args, out, spec, r, live)
+    finally:
+        if live:
+            live.stop()
+    return 0
+
+
+def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
+    """What ``sim`` prints and writes after its mission: run.json, the table, the recording."""
+    from ..metrics import format_table
+    from ..provenance import write_run_record
+    from ..results import lapse_lines
+
     write_run_record(out, args.argv, spec, seed=r["seed"])
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
@@ -158,7 +177,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
         print(line)
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
           + ", mission.tlog, *.log, run.json")
-    return 0
+    view.record(args, out, spec, r["seed"], grpc_url=live.server.grpc_url if live else None)
+    if live:
+        live.linger()
 
 
 def cmd_forecast(args: argparse.Namespace) -> int:
