@@ -44,7 +44,7 @@ def test_reproduces_run_json_holds_specs_configs_and_parameters():
     doc = run_record(["reproduce"], [t.spec for t in paper_tasks(None, 60.0, False, {"WK_FF_GAIN": 0.9})])
     assert len(doc["specs"]) == 9 and {s["case"] for s in doc["specs"]} == {"W1", "W2", "W3"}
     assert set(doc["configs"]) == {"sea", "mission", "vehicle"} and set(doc["configs"]["sea"]) == {"W1", "W2", "W3"}
-    assert doc["parameters"]["WK_FF_GAIN"] == 0.9 and doc["parameter_overrides"] == {"WK_FF_GAIN": 0.9}
+    assert doc["parameters"]["WK_FF_GAIN"] == 0.9 and doc["parameter_overrides"]["WK_FF_GAIN"] == 0.9
 
 
 def test_the_dashboard_a_campaign_prints_is_served():
