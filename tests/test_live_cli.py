@@ -56,9 +56,9 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
         _expect(q, "Wavekeep live")
         gcs.heartbeats(True)
         assert gcs.heartbeat(timeout=20.0) is not None
-        ack = gcs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 2, timeout=10.0)           # ALT_HOLD
+        ack = gcs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, timeout=10.0)           # GUIDED: holds station
         assert ack is not None and ack.result == 0
-        t_mode = _expect(q, "Mode ALT_HOLD")
+        t_mode = _expect(q, "Mode GUIDED")
         ack = gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, timeout=10.0)
         assert ack is not None and ack.result == 0
         t_arm = _expect(q, "Armed")
@@ -79,5 +79,6 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
     assert proc.returncode == 0, (tmp_path / "stderr").read_text()
     assert any("stopped after" in line for line in out) and any("RMSE" in line for line in out)
     text = log.read_text()
-    for word in ("Mode ALT_HOLD", "Armed", "GCS failsafe", "RMSE"):
+    assert any("the controller held station" in line for line in out)
+    for word in ("Mode GUIDED", "Armed", "GCS failsafe", "RMSE"):
         assert word in text, word
