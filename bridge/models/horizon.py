@@ -92,15 +92,23 @@ def horizon_grid(h: float, step: float, n: int) -> np.ndarray:
     return np.array([h] + [step] * (n - 1), dtype=float) if n > 0 else np.zeros(0)
 
 
-def stage_times(dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The horizon's RK4 stage instants: the 2N + 1 distinct offsets (s from now: every step's start, middle
-    and end, a step's end being the next one's start) and, for step k's stages at rows 3k, 3k + 1, 3k + 2,
-    their index into those offsets (3N,), so the flow is evaluated once per instant."""
+def stage_times(dt: np.ndarray, exact_steps: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The instants (s from now) at which a horizon's flow is evaluated, and how its 3N RK4 stages take them.
+
+    Every step's start and end (a step's end is the next one's start) and, for the first ``exact_steps``
+    steps (default: all), its middle: 2N + 1 instants at most. Step k's stages (rows 3k, 3k + 1, 3k + 2)
+    are the mean of the instants ``a`` and ``b`` (both (3N,)): the same instant where it is evaluated, the
+    step's two ends for a middle that is not. A step of 0.1 s against waves of 4 s or more puts that
+    linear interpolation within 0.1 % of the flow (the curvature term Δ²ω²/8).
+    """
     dt = np.asarray(dt, dtype=float)
     n = dt.size
+    exact = n if exact_steps is None else min(n, max(0, int(exact_steps)))
     knots = np.concatenate([[0.0], np.cumsum(dt)])
-    offsets = np.empty(2 * n + 1)
-    offsets[0::2] = knots
-    offsets[1::2] = knots[:-1] + 0.5 * dt
-    index = np.stack([2 * np.arange(n), 2 * np.arange(n) + 1, 2 * np.arange(n) + 2], axis=1).ravel()
-    return offsets, index
+    offsets = np.concatenate([knots, knots[:exact] + 0.5 * dt[:exact]])
+    start, end = np.arange(n), np.arange(1, n + 1)
+    mid_a = np.where(np.arange(n) < exact, n + 1 + np.arange(n), start)
+    mid_b = np.where(np.arange(n) < exact, n + 1 + np.arange(n), end)
+    a = np.stack([start, mid_a, end], axis=1).ravel()
+    b = np.stack([start, mid_b, end], axis=1).ravel()
+    return offsets, a, b

@@ -56,16 +56,17 @@ class MPCSettings(NamedTuple):
     dt: np.ndarray            # (N,) step lengths (s)
     a_mid: np.ndarray         # (N,) the motors' share of a step's thrust change reached at its middle
     e: np.ndarray             # (N,) e^{−Δ_k/t_m}
-    offsets: np.ndarray       # (2N+1,) the distinct RK4 stage times (s after the command starts)
-    stage_index: np.ndarray   # (3N,) step k's stages (rows 3k..3k+2) into ``offsets``
+    offsets: np.ndarray       # the instants the flow is evaluated at (s after the command starts)
+    stage_a: np.ndarray       # (3N,) step k's stages (rows 3k..3k+2) are the mean of offsets[a] and [b]
+    stage_b: np.ndarray
     knots: np.ndarray         # (N,) step ends (s after the command starts)
     cost: HorizonCost
     scale: np.ndarray         # (3,) τ_max per axis: the inputs' normalisation (N, N, N m)
     max_iter: int
     budget_ms: float
     disturbance: bool
-    vel_tc: float             # s, the low-pass on the initial surge and heave velocity
-    shape: tuple              # what the QP's structure depends on
+    vel_tc: float             # s: the initial u, w blended into the last plan's prediction over this
+    block: int                # steps a demand is held over after the first              # what the QP's structure depends on
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
@@ -76,11 +77,10 @@ def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
     q = np.array([*p.axes("WK_MPC_Q"), *p.axes("WK_MPC_QV")])
     cost = HorizonCost(q, p["WK_MPC_QT"], np.array(p.axes("WK_MPC_R")), np.array(p.axes("WK_MPC_RD")))
     scale = np.array(p.axes("WK_TAU_MAX"))
-    shape = (n, float(p["WK_MPC_DT"]), int(p["WK_MPC_BLK"]), float(p["WK_MOT_TC"]), float(p["WK_THR_MAX"]),
-             tuple(scale.tolist()))
-    offsets, index = stage_times(dt)
-    return MPCSettings(dt, a_mid, e, offsets, index, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),
-                       float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), float(p["WK_MPC_VEL_TC"]), shape)
+    offsets, a, b = stage_times(dt, exact_steps=1)      # the command's own step exactly, the rest interpolated
+    return MPCSettings(dt, a_mid, e, offsets, a, b, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),
+                       float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), float(p["WK_MPC_VEL_TC"]),
+                       int(p["WK_MPC_BLK"]))
 
 
 @dataclass
@@ -112,7 +112,7 @@ class PreviewMPC:
         self.B = layout.allocation_matrix()
         self.stats = MPCStats()
         self._qp: CondensedQP | None = None
-        self._qp_shape: tuple | None = None
+        self._qp_settings: MPCSettings | None = None
         self._poly: WrenchPolytope | None = None
         self._plan: tuple[float, np.ndarray] | None = None     # (time the plan's command started, V (N, 3))
         self._falling_back = False
@@ -166,7 +166,7 @@ class PreviewMPC:
         g = restoring_terms(self.vehicle, float(sp[1]), float(sp[2]))
         u_trim = (np.array(g) - d) / st.scale      # the wrench that holds the target in still water
         S = prediction_matrix(A, B, E)
-        res = qp.solve(X, S, V, tau0, ref, u_trim, st.cost)
+        res = qp.solve(X, S, V, tau0, ref, u_trim)
         if res.V is not None:     # the plan's state one tick ahead, linearly: the next tick's prediction
             x1 = X[1] + S[:6] @ (res.V - V).ravel()
             self._predicted_uw = (float(x1[3]), float(x1[4]))
@@ -193,14 +193,12 @@ class PreviewMPC:
         return x
 
     def _qp_for(self, st: MPCSettings) -> CondensedQP:
-        """The QP of this horizon shape, built again only when the shape (or the thrust limit) changes."""
-        if self._qp is None or self._qp_shape != st.shape:
+        """The QP of these settings, built again only when a parameter has changed (a new settings object)."""
+        if self._qp is None or self._qp_settings is not st:
             f_max = self.params["WK_THR_MAX"]
-            poly = WrenchPolytope.from_allocation(self.B, -f_max, f_max)
-            self._qp = CondensedQP(st.dt, st.e, st.scale, poly, st.max_iter, st.shape[2])
-            self._qp_shape = st.shape
-            self._poly = poly
-        self._qp.set_max_iter(st.max_iter)
+            self._poly = WrenchPolytope.from_allocation(self.B, -f_max, f_max)
+            self._qp = CondensedQP(st.dt, st.e, st.scale, self._poly, st.max_iter, st.block, st.cost)
+            self._qp_settings = st
         return self._qp
 
     def _nominal(self, t: float, st: MPCSettings, held: np.ndarray) -> np.ndarray:
@@ -224,10 +222,10 @@ class PreviewMPC:
             return None
         times = c.t_ahead + st.offsets
         f = body_flow(c.forecast.components, np.asarray(c.x_ahead[:3], dtype=float), times, self.strips)
-        i = st.stage_index
-        keep = (times <= c.forecast.forecast.valid_until)[i][:, None]   # past its window: still water
-        flow = BodyFlow(f.xs, f.wts, f.u[i] * keep, f.w[i] * keep, f.ax[i] * keep, f.az[i] * keep)
-        return skill_weighted_flow(flow, weight)
+        a, b = st.stage_a, st.stage_b
+        keep = 0.5 * (times <= c.forecast.forecast.valid_until)[:, None]   # past its window: still water
+        u, w, ax, az = ((v * keep)[a] + (v * keep)[b] for v in (f.u, f.w, f.ax, f.az))
+        return skill_weighted_flow(BodyFlow(f.xs, f.wts, u, w, ax, az), weight)
 
     # ------------------------------------------------------------------ bookkeeping
     def _on_limits(self, v0: np.ndarray, tau0: np.ndarray, st: MPCSettings) -> bool:

@@ -88,21 +88,33 @@ def block_expansion(n: int, block: int) -> np.ndarray:
 
 
 class CondensedQP:
-    """The QP of one horizon shape: N steps of ``dt`` s with lag factors ``e``, inputs normalised by ``scale``
-    and held over blocks of ``block`` steps after the first, within the wrench limits ``poly``."""
+    """The QP of one horizon and cost: N steps of ``dt`` s with lag factors ``e``, inputs normalised by ``scale``
+    and held over blocks of ``block`` steps after the first, within the wrench limits ``poly``, weighed by ``cost``.
+
+    What does not change from tick to tick is built here once: the block expansion, the effort and rate
+    terms of P, the state weights and the constraint matrix.
+    """
 
     def __init__(self, dt: np.ndarray, e: np.ndarray, scale: np.ndarray, poly: WrenchPolytope, max_iter: int,
-                 block: int = 1):
+                 block: int, cost: HorizonCost):
         self.dt, self.e = np.asarray(dt, dtype=float), np.asarray(e, dtype=float)
         self.n = n = self.dt.size
         self.scale = np.asarray(scale, dtype=float)
         self.poly = poly
         self._T = T = block_expansion(n, block)
         nb = T.shape[1] // 3
-        self._DT = (np.eye(3 * n) - np.eye(3 * n, k=-3)) @ T          # the change of per-step inputs, per block
-        # The commands' constraint rows, at each block's first step k_b (within a block the demand is held,
-        # so the command is the demand there): N_f diag(s) (z_b − e_k z_{b−1}) / (1 − e_k)
-        self._firsts = np.flatnonzero(np.concatenate([[True], np.diff(T.argmax(axis=1)[::3]) != 0]))
+        # each block's first step k_b: the steps a block's demand starts at (reduceat's indices)
+        self._firsts = np.flatnonzero(np.concatenate([[True], np.diff(T[::3].argmax(axis=1)) != 0]))
+        DT = (np.eye(3 * n) - np.eye(3 * n, k=-3)) @ T          # the change of per-step inputs, per block
+        self._DT = DT
+        w = np.outer(self.dt, cost.q)                            # Δ_{k−1} Q on x_k, k = 1..N
+        w[-1] += cost.q_terminal * cost.q
+        self._w = w.ravel()
+        self._r = np.outer(self.dt, cost.r).ravel()
+        self._rd = np.outer(1.0 / self.dt, cost.rd).ravel()
+        self._P_inputs = T.T @ (T * self._r[:, None]) + DT.T @ (DT * self._rd[:, None])
+        # The commands' constraint rows, at each block's first step (within a block the demand is held, so the
+        # command is the demand there): N_f diag(s) (z_b − e_k z_{b−1}) / (1 − e_k)
         nf = poly.normals.shape[0]
         Ns = poly.normals * self.scale        # (F, 3)
         Ac = np.zeros((nf * nb, 3 * nb))
@@ -115,32 +127,23 @@ class CondensedQP:
         self._max_iter = int(max_iter)
         self._sense: np.ndarray | None = None      # the last active set (DAQP's warm start)
 
-    def set_max_iter(self, max_iter: int) -> None:
-        self._max_iter = int(max_iter)
-
     def forget(self) -> None:
         """Drop the warm start (a reset)."""
         self._sense = None
 
     def solve(self, X: np.ndarray, S: np.ndarray, V: np.ndarray, tau0: np.ndarray, ref: np.ndarray,
-              u_trim: np.ndarray, cost: HorizonCost) -> QPResult:
+              u_trim: np.ndarray) -> QPResult:
         """The demands that minimise the cost about the nominal ``V`` (rollout ``X``, prediction matrix ``S``)."""
         n, s, T = self.n, self.scale, self._T
-        St = (S * np.tile(s, n)) @ T                             # per block, in normalised input
-        w = np.outer(self.dt, cost.q)                            # Δ_{k−1} Q on x_k, k = 1..N
-        w[-1] += cost.q_terminal * cost.q
-        w = w.ravel()
+        # per block, in normalised input: the columns of the steps of a block summed
+        St = np.add.reduceat(S.reshape(6 * n, n, 3) * s, self._firsts, axis=1).reshape(6 * n, -1)
+        w = self._w
+        P = St.T @ (St * w[:, None]) + self._P_inputs
         U = (V / s).ravel()
-        u_prev = np.zeros(3 * n)
-        u_prev[:3] = tau0 / s
-        r_diag = (np.outer(self.dt, cost.r)).ravel()
-        rd_diag = (np.outer(1.0 / self.dt, cost.rd)).ravel()
-        DT = self._DT
-        P = St.T @ (St * w[:, None]) + T.T @ (T * r_diag[:, None]) + DT.T @ (DT * rd_diag[:, None])
-        err = (X[1:] - ref).ravel()
         dU = U - np.roll(U, 3)
-        dU[:3] = U[:3] - u_prev[:3]
-        q = St.T @ (w * err) + T.T @ (r_diag * (U - np.tile(u_trim, n))) + DT.T @ (rd_diag * dU)
+        dU[:3] = U[:3] - tau0 / s
+        err = (X[1:] - ref).ravel()
+        q = St.T @ (w * err) + T.T @ (self._r * (U - np.tile(u_trim, n))) + self._DT.T @ (self._rd * dU)
         C = self._nominal_commands(V, tau0)[self._firsts]
         lim = self.poly.half[None, :]
         offset = (C - self.poly.centre) @ self.poly.normals.T       # (B, F)

@@ -117,7 +117,7 @@ def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duratio
                  "--method", method, *configs, "--log", str(out / "companion_ticks.csv")]
     if spec.ff:
         companion += ["--forecast", "zenoh", "--network", str(netcfg)]
-    for name, value in spec.overrides.items():
+    for name, value in {**spec.implied_params(), **spec.overrides}.items():   # the law (WK_CTRL_LAW) included
         companion += ["--set", f"{name}={value!r}"]
     children.append(Child("companion", companion, out / "companion.log", env))
     wait_ready(children, opt.ready_timeout_s)
