@@ -44,10 +44,10 @@ def rmse_table(rows: list[dict[str, str]]) -> dict:
 
 def wave_load_rms(duration: float = 600.0) -> dict:
     """RMS of the true wave load τ_E (N, N, N m) on the C-PD vehicle, seed 1, per case and world."""
+    from sitl.harness.reproduce import WORLDS as REPRO_WORLDS
     from sitl.harness.results import COLUMN
     from sitl.harness.run import run_mission
     from sitl.harness.spec import PAPER_CASES, RunSpec
-    from sitl.harness.reproduce import WORLDS as REPRO_WORLDS
 
     out: dict = {}
     for case in PAPER_CASES:

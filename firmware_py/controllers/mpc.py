@@ -66,7 +66,7 @@ class MPCSettings(NamedTuple):
     budget_ms: float
     disturbance: bool
     vel_tc: float             # s: the initial u, w blended into the last plan's prediction over this
-    block: int                # steps a demand is held over after the first              # what the QP's structure depends on
+    vel_tc: float             # s: the initial u, w blended into the last plan's prediction
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
