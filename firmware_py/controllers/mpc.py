@@ -65,8 +65,8 @@ class MPCSettings(NamedTuple):
     max_iter: int
     budget_ms: float
     disturbance: bool
-    vel_tc: float             # s: the initial u, w blended into the last plan's prediction over this
     vel_tc: float             # s: the initial u, w blended into the last plan's prediction
+    block: int                # steps a demand is held over after the first
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
