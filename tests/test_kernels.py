@@ -363,3 +363,44 @@ def test_t200_command_gives_the_published_samples(path, cfg):
         pwm, thrust = curve.command([f * (1.0 + hair) for _, f in samples] + [0.0, 500.0, -500.0])
         assert pwm.tolist() == [p for p, _ in samples] + [1500, 1900, 1100], hair
         close(thrust, [f for _, f in samples] + [0.0, 5.25 * KGF, -4.07 * KGF], scale=5.25 * KGF)
+
+
+@needs_numba
+def test_the_horizon_rollout_and_its_jacobians_match_python(monkeypatch, sea, vehicle):
+    """The MPC's horizon (bridge/models/horizon.py) on both paths: the rollout to 1e-12, the forward-difference
+    Jacobians to 1e-6 of their scale (a difference of 1e-12 over a step of 1e-6)."""
+    from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, stage_times
+    from firmware_py.controllers.mpc_qp import prediction_matrix
+
+    dt = horizon_grid(0.05, 0.1, 12)
+    a_mid, _ = lag_profile(dt, 0.1)
+    offsets, a, b = stage_times(dt)
+    x0 = np.array([0.2, 5.1, 0.03, 0.1, -0.2, 0.05])
+    f = body_flow(sea.components, x0[:3], 40.0 + offsets, strip_nodes(vehicle.length, 3))
+    flow = type(f)(f.xs, f.wts, 0.5 * (f.u[a] + f.u[b]), 0.5 * (f.w[a] + f.w[b]), 0.5 * (f.ax[a] + f.ax[b]),
+                   0.5 * (f.az[a] + f.az[b]))
+    V = np.random.default_rng(4).normal(0.0, 20.0, size=(12, 3))
+    args = (vehicle, x0, np.array([5.0, -10.0, 1.0]), V, dt, a_mid, np.array([1.0, 2.0, 0.1]))
+    for fl in (flow, None):
+        fast, ref = both(monkeypatch, lambda fl=fl: linearise_horizon(*args, fl))
+        close(fast[0], ref[0])
+        for got, want in zip(fast[1:], ref[1:], strict=True):
+            close(got, want, tol=1e-6)
+        S_fast, S_ref = both(monkeypatch, lambda r=ref: prediction_matrix(*r[1:]))
+        close(S_fast, S_ref)
+
+
+def test_the_prediction_matrix_is_the_stacked_recursion(path):
+    """δx_{k+1} = A δx_k + B δv_k + E δv_{k−1} with fixed A, B, E: block (k, j) of S is A^{k−j} B + A^{k−j−1} E
+    (and B on the diagonal), written out by matrix powers."""
+    from firmware_py.controllers.mpc_qp import prediction_matrix
+
+    rng = np.random.default_rng(2)
+    A, B, E = 0.3 * rng.normal(size=(6, 6)), rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+    n = 5
+    S = prediction_matrix(np.tile(A, (n, 1, 1)), np.tile(B, (n, 1, 1)), np.tile(E, (n, 1, 1)))
+    power = [np.linalg.matrix_power(A, i) for i in range(n)]
+    for k in range(n):
+        for j in range(n):
+            want = np.zeros((6, 3)) if j > k else power[k - j] @ B + (power[k - j - 1] @ E if k > j else 0.0)
+            close(S[6 * k:6 * k + 6, 3 * j:3 * j + 3], want, scale=1.0)
