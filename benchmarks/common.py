@@ -67,3 +67,21 @@ def campaign_rows(folder: Path) -> list[dict]:
             if r.get("status") == "ok":
                 rows[r["mission_id"]] = r
     return list(rows.values())
+
+
+def read_rows(path: str | Path) -> list[dict[str, str]]:
+    """A campaign's ``missions.csv`` as dicts of strings."""
+    import csv
+
+    with open(path, newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def emit_checks(doc: dict, out: str | None) -> int:
+    """Print an acceptance document (and write it to ``out``); 0 when every check in ``doc["checks"]`` passes."""
+    text = json.dumps(doc, indent=1)
+    if out:
+        Path(out).write_text(text + "\n", encoding="utf-8")
+    print(text)
+    return 0 if all(c["pass"] for c in doc["checks"].values()) else 1
+

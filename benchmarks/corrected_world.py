@@ -12,13 +12,13 @@ the vehicle: how much harder the corrected sea pushes.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import read_rows
 from benchmarks.ff_acceptance import DOF, acceptance
 
 WORLDS = {"corrected": "", "paper": "_paper"}
@@ -67,8 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="benchmarks/results/corrected_world_20_seeds.json")
     ap.add_argument("--no-loads", action="store_true", help="skip flying the six wave-load missions")
     args = ap.parse_args(argv)
-    with open(args.missions_csv, newline="", encoding="utf-8") as fh:
-        rows = list(csv.DictReader(fh))
+    rows = read_rows(args.missions_csv)
     doc = {"campaign": "configs/campaign/corrected_world_20_seeds.yaml",
            "acceptance": {world: acceptance(rows, sfx) for world, sfx in WORLDS.items()},
            "table": rmse_table(rows)}

@@ -16,12 +16,11 @@ Means come with a seeded percentile bootstrap 95 % interval over seeds.
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
-from pathlib import Path
 
 import numpy as np
+
+from benchmarks.common import emit_checks, read_rows
 
 DOF = ("surge", "heave", "pitch")
 
@@ -97,13 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="also write the document as JSON here")
     ap.add_argument("--suffix", default="", help="check the variants cpd SUFFIX, ff_exact SUFFIX, ff_15db SUFFIX")
     args = ap.parse_args(argv)
-    with open(args.missions_csv, newline="", encoding="utf-8") as fh:
-        doc = acceptance(list(csv.DictReader(fh)), args.suffix)
-    text = json.dumps(doc, indent=1)
-    if args.out:
-        Path(args.out).write_text(text + "\n", encoding="utf-8")
-    print(text)
-    return 0 if all(c["pass"] for c in doc["checks"].values()) else 1
+    return emit_checks(acceptance(read_rows(args.missions_csv), args.suffix), args.out)
 
 
 if __name__ == "__main__":

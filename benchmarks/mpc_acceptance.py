@@ -21,13 +21,11 @@ Power is reported beside it (mean over seeds, W), and the solver's figures (iter
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 
+from benchmarks.common import emit_checks, read_rows
 from benchmarks.ff_acceptance import DOF, _bootstrap_ci
 
 PAIRS = {"mpc_exact": "ff_exact", "mpc_15db": "ff_15db", "mpc_dswp": "ff_dswp", "mpc_exact_aided": "ff_exact_aided"}
@@ -120,13 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("missions_csv")
     ap.add_argument("--out", default=None, help="also write the document as JSON here")
     args = ap.parse_args(argv)
-    with open(args.missions_csv, newline="", encoding="utf-8") as fh:
-        doc = acceptance(list(csv.DictReader(fh)))
-    text = json.dumps(doc, indent=1)
-    if args.out:
-        Path(args.out).write_text(text + "\n", encoding="utf-8")
-    print(text)
-    return 0 if all(c["pass"] for c in doc["checks"].values()) else 1
+    return emit_checks(acceptance(read_rows(args.missions_csv)), args.out)
 
 
 if __name__ == "__main__":
