@@ -35,7 +35,9 @@ POS_ONLY = 0b0000_1101_1111_1000        # type_mask: ignore velocity, accelerati
 class GroundStation:
     """A pymavlink GCS: sends a 1 Hz heartbeat from a thread, reads and matches in the test's thread."""
 
-    def __init__(self, url: str, sysid: int = 255, compid: int = 190, key: bytes | None = None):
+    def __init__(self, url: str, sysid: int = 255, compid: int = 190, key: bytes | None = None,
+                 hb_period: float = 1.0):
+        self.hb_period = hb_period      # s of wall time between heartbeats (shorter for a vehicle run faster)
         self.conn = mavutil.mavlink_connection(url, source_system=sysid, source_component=compid,
                                                dialect="ardupilotmega")
         if key is not None:
@@ -68,7 +70,7 @@ class GroundStation:
         while not self._hb_stop.is_set():
             self.send(mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID,
                                                         0, 0, 0, 3))
-            self._hb_stop.wait(1.0)
+            self._hb_stop.wait(self.hb_period)
 
     # ---- receiving: every message is kept in ``log`` (arrival time in ._t), so a wait can look back
     def _pump(self, timeout: float) -> None:
