@@ -15,11 +15,12 @@ from typing import TYPE_CHECKING
 
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
 from .param_protocol import BANNER
+from .pilot import Joystick
 from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED
 from .wire import ID, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["FORCE_ARM_MAGIC", "MOTOR_TEST_TIMEOUT_S", "Dispatcher"]
 
@@ -39,12 +40,15 @@ class Dispatcher:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         The link whose firmware the handlers drive and on which they queue replies.
+    joystick : Joystick
+        The pilot's joystick (MANUAL_CONTROL's gain and buttons; RC overrides restart its failsafe).
     """
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort, joystick: Joystick):
         self.link = link
+        self.joystick = joystick
         self.fw = link.fw
         self.messages: dict[int, Callable[[int, object], None]] = {
             ID["HEARTBEAT"]: self.on_heartbeat,
@@ -124,7 +128,7 @@ class Dispatcher:
         if not self._from_gcs(msg):        # ArduSub takes sticks from its own GCS only
             return self.link.ignored()
         rc = self.link.state.rc
-        x, up, pitch = self.link.joystick.manual_control(msg)     # buttons, pilot gain (ArduSub's joystick)
+        x, up, pitch = self.joystick.manual_control(msg)     # buttons, pilot gain (ArduSub's joystick)
         rc[0], rc[2], rc[4] = _stick(pitch), _stick(up), _stick(x)
         self.fw.pilot_input(x, up, pitch)
         self.fw.gcs_heartbeat()            # ArduSub: pilot input counts as the GCS being there
@@ -148,7 +152,7 @@ class Dispatcher:
             elif v not in (0, UINT16_MAX):
                 self.fw.rc_override_aux(ch, int(v))
         norm = lambda ch: (rc[ch] - RC_NEUTRAL) / RC_RANGE   # noqa: E731
-        self.link.joystick.touched()
+        self.joystick.touched()
         self.fw.pilot_input(norm(4), norm(2), norm(0))
         self.fw.gcs_heartbeat()
 

@@ -41,9 +41,10 @@ from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
 from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
-from .telemetry_extra import EXTRA_BUILDERS, VibrationMonitor
+from .telemetry_extra import EXTRA_BUILDERS
 from .transports import Transport, make_transport
 from .vehicle_commands import VehicleCommands
+from .vibration import VibrationMonitor
 from .wire import COMPONENT_ID, ID, SIGNING_EPOCH_S, UINT16_MAX, clip_int, mavlink
 
 __all__ = ["MavlinkLink"]
@@ -116,8 +117,8 @@ class MavlinkLink:
         self.battery = BatterySim(firmware.params)
         self.state.vibration = VibrationMonitor()
         self.joystick = Joystick(self)
-        self.vehicle_commands = VehicleCommands(self)
-        self.dispatcher = Dispatcher(self)
+        self.vehicle_commands = VehicleCommands(self, self.joystick)
+        self.dispatcher = Dispatcher(self, self.joystick)
         self.dispatcher.commands.update(self.vehicle_commands.commands)
         self.param_protocol = ParamProtocol(self)
         self.missions = MissionProtocol(self)
@@ -166,7 +167,7 @@ class MavlinkLink:
     def stop(self, timeout: float = 2.0) -> None:
         """Stop the I/O thread (after it sends what is queued) and close every socket. Idempotent."""
         self._stop.set()
-        self._wake()
+        self.wake()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
         for ep in self.endpoints:
@@ -262,7 +263,7 @@ class MavlinkLink:
             self._drain()                  # the companion's commands for the next control tick
             self._send_events()
         if self._outbox:
-            self._wake()
+            self.wake()
 
     def _drain(self) -> None:
         """Handle inbox messages, at most ``max_per_update`` and about ``budget_s``."""
@@ -295,7 +296,7 @@ class MavlinkLink:
         st.ekf_thresh = float(self.fw.params["FS_EKF_THRESH"])
         self.joystick.update(snap.t)
 
-    def _wake(self) -> None:
+    def wake(self) -> None:
         with contextlib.suppress(OSError):   # full (already awake) or closed
             self._wake_w.send(b"\0")
 

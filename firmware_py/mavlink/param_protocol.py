@@ -24,7 +24,7 @@ from ..params import INT_TYPE_RANGES, ParamDef
 from .wire import ID, WAVEKEEP_VERSION, mavlink, tidy_float32
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["BANNER", "MAV_PARAM_TYPES", "ParamProtocol", "wire_to_value"]
 
@@ -64,13 +64,13 @@ class ParamProtocol:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         Where replies are queued and refusals counted.
     """
 
     PER_UPDATE = 20
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort):
         self.link = link
         self._cursor: dict[int, int] = {}       # endpoint → next index of a PARAM_REQUEST_LIST
         self.messages: dict[int, Callable[[int, object], None]] = {

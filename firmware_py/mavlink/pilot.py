@@ -29,7 +29,7 @@ from ..modes import MAV_RESULT, MAV_SEVERITY
 from .wire import INT16_MAX, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["BUTTON_MODES", "Joystick"]
 
@@ -45,7 +45,7 @@ _AUX_FUNCTION_PARAMS = tuple((ch, f"SERVO{ch}_FUNCTION") for ch in range(9, 17))
 class Joystick:
     """Pilot input state of one link (runs in the link's update, the scheduler thread)."""
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort):
         self.link = link
         self.fw = link.fw
         p = self.fw.params

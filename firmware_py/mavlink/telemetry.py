@@ -24,7 +24,7 @@ from .wire import FLIGHT_SW_VERSION, ID, INT16_MAX, RC_NEUTRAL, UINT16_MAX, clip
 
 if TYPE_CHECKING:
     from .battery import BatteryState
-    from .telemetry_extra import VibrationMonitor
+    from .vibration import VibrationMonitor
 
 __all__ = [
     "BUILDERS",
