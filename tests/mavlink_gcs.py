@@ -149,8 +149,11 @@ class Vehicle:
     def __init__(self, **kw):
         self.gcs_port, self.in_port = free_port(), free_port()
         self.gs = GroundStation(f"udpin:127.0.0.1:{self.gcs_port}")
-        self.sim = LiveSim(RunSpec("W1", "cpd_ff", seed=7), mavlink=[f"udpout:127.0.0.1:{self.gcs_port}",
-                                                            f"udpin:127.0.0.1:{self.in_port}"], **kw)
+        # A ground station without a joystick: ArduSub's pilot-input failsafe (FS_PILOT_INPUT 2) would trip
+        # once at boot and keep the heartbeat CRITICAL until sticks came; the tests that fly it turn it on.
+        spec = RunSpec("W1", "cpd_ff", seed=7, overrides={"FS_PILOT_INPUT": 0})
+        self.sim = LiveSim(spec, mavlink=[f"udpout:127.0.0.1:{self.gcs_port}", f"udpin:127.0.0.1:{self.in_port}"],
+                           **kw)
         self.fw, self.link = self.sim.firmware, self.sim.link
         self.defaults = self.fw.params.as_dict()
 
@@ -170,6 +173,7 @@ class Vehicle:
         """Test teardown: disarmed, MANUAL, default parameters, heartbeats on."""
         self.fw.request_arm(False)
         self.fw.request_mode(Mode.MANUAL)
+        self.link.state.home = None             # home where the vehicle booted (arming moves it)
         for name, value in self.defaults.items():
             if self.fw.params[name] != value:
                 self.fw.params.set(name, value)

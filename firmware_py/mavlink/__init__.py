@@ -13,10 +13,11 @@ What goes on the wire, and where it differs from ArduSub, is in ``docs/mavlink.m
 """
 from __future__ import annotations
 
+from .identity import CAPABILITIES, FLIGHT_SW_VERSION
 from .keys import load_signing_key
 from .link import MavlinkLink
-from .telemetry import CAPABILITIES, DATA_STREAM_PARAMS, STREAM_GROUPS
-from .wire import FLIGHT_SW_VERSION, SIGNING_EPOCH_S
+from .telemetry import DATA_STREAM_PARAMS, STREAM_GROUPS
+from .wire import SIGNING_EPOCH_S
 
 __all__ = [
            "CAPABILITIES",

@@ -14,9 +14,9 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
-from .param_protocol import BANNER
+from .identity import banner
 from .pilot import Joystick
-from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED
+from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED, home_location
 from .wire import ID, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
 
 if TYPE_CHECKING:
@@ -59,6 +59,7 @@ class Dispatcher:
             ID["COMMAND_LONG"]: self.on_command_long,
             ID["COMMAND_INT"]: self.on_command_int,
             ID["SET_POSITION_TARGET_LOCAL_NED"]: self.on_position_target,
+            ID["SET_POSITION_TARGET_GLOBAL_INT"]: self.on_position_target_global,
             ID["TIMESYNC"]: self.on_timesync,
             ID["AUTOPILOT_VERSION_REQUEST"]: self.on_autopilot_version_request,
         }
@@ -81,29 +82,32 @@ class Dispatcher:
 
     # ------------------------------------------------------------------ messages
     def _from_gcs(self, msg) -> bool:
-        return msg.get_srcSystem() == int(self.fw.params["SYSID_MYGCS"])
+        return msg.get_srcSystem() == int(self.fw.params["MAV_GCS_SYSID"])
 
     def on_heartbeat(self, ep: int, msg) -> None:
-        """A heartbeat from SYSID_MYGCS keeps the GCS failsafe away."""
+        """A heartbeat from MAV_GCS_SYSID keeps the GCS failsafe away."""
         if self._from_gcs(msg):
             self.fw.gcs_heartbeat()
 
     def set_mode(self, base_mode: float, custom_mode: float) -> int:
-        """Switch to ArduSub mode ``custom_mode``; base_mode must carry CUSTOM_MODE_ENABLED."""
+        """Switch to ArduSub mode ``custom_mode``; base_mode must carry CUSTOM_MODE_ENABLED (else DENIED, as
+        ArduSub)."""
         if not finite(base_mode, custom_mode):
             return MAV_RESULT.FAILED
         if not int(base_mode) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            return MAV_RESULT.UNSUPPORTED
+            return MAV_RESULT.DENIED
         if custom_mode != int(custom_mode) or not 0 <= custom_mode < 2**32:
             return MAV_RESULT.FAILED
         return self.fw.request_mode(int(custom_mode))
 
     def on_set_mode(self, ep: int, msg) -> None:
-        """SET_MODE, acked as ArduPilot does: a COMMAND_ACK whose command is the message id (11)."""
-        self.link.ack(ep, msg, ID["SET_MODE"], self.set_mode(msg.base_mode, msg.custom_mode))
+        """SET_MODE: no COMMAND_ACK (ArduSub 4.7 sends none: a refusal is said in a STATUSTEXT, a change shows
+        in the heartbeat)."""
+        if self.set_mode(msg.base_mode, msg.custom_mode) != MAV_RESULT.ACCEPTED:
+            self.link.ignored()
 
     def on_request_data_stream(self, ep: int, msg) -> None:
-        """REQUEST_DATA_STREAM sets the group's SR0_ rate (Hz) and resets its messages' own intervals."""
+        """REQUEST_DATA_STREAM sets the group's MAV1_ rate (Hz) and resets its messages' own intervals."""
         if msg.start_stop == 0:
             rate = 0.0
         elif msg.start_stop == 1:
@@ -176,6 +180,25 @@ class Dispatcher:
         if fw.set_target(x, depth, None) != MAV_RESULT.ACCEPTED:
             self.link.ignored()
 
+    def on_position_target_global(self, ep: int, msg) -> None:
+        """SET_POSITION_TARGET_GLOBAL_INT (GUIDED only): x from the latitude (degE7), depth = −altitude (m, AMSL:
+        the sea surface is 0; or relative to home); longitude is not a DoF here."""
+        frames = (mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                  mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT)
+        snap = self.link.snapshot
+        if self.fw.mode != Mode.GUIDED or msg.coordinate_frame not in frames or snap is None:
+            return self.link.ignored()
+        mask = msg.type_mask
+        lat, alt = msg.lat_int * 1e-7, float(msg.alt)
+        if msg.coordinate_frame in frames[2:]:
+            alt += home_location(snap, self.link.state)[2]
+        x = None if mask & mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE else \
+            math.radians(lat - snap.origin_lat) * EARTH_RADIUS_M
+        depth = None if mask & mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE else -alt
+        if not -90.0 <= lat <= 90.0 or (x is None and depth is None) or \
+                self.fw.set_target(x, depth, None) != MAV_RESULT.ACCEPTED:
+            self.link.ignored()
+
     def on_timesync(self, ep: int, msg) -> None:
         """TIMESYNC request (tc1 = 0): answered with the vehicle's time (ns); answers are not answered."""
         if msg.tc1 != 0:
@@ -240,6 +263,10 @@ class Dispatcher:
         timeout = timeout if 0.0 < timeout < MOTOR_TEST_TIMEOUT_S else MOTOR_TEST_TIMEOUT_S
         if not -2**31 <= motor < 2**31:
             return MAV_RESULT.FAILED
+        if not self.fw.armed:               # ArduSub's words, and its FAILED
+            self.link.statustext(MAV_SEVERITY.WARNING, "Arm motors before testing motors.", ep)
+            self.link.statustext(MAV_SEVERITY.WARNING, "motor test initialization failed!", ep)
+            return MAV_RESULT.FAILED
         return self.fw.motor_test(int(motor), pwm, timeout)
 
     def cmd_set_message_interval(self, ep: int, msg, p: Params7) -> int:
@@ -295,8 +322,9 @@ class Dispatcher:
         return MAV_RESULT.ACCEPTED
 
     def cmd_banner(self, ep: int, msg, p: Params7) -> int:
-        """MAV_CMD_DO_SEND_BANNER: the firmware's name and version in a STATUSTEXT."""
-        self.link.statustext(MAV_SEVERITY.INFO, BANNER, ep)
+        """MAV_CMD_DO_SEND_BANNER: ArduSub's banner, firmware and commit, board id, frame (STATUSTEXT × 3)."""
+        for line in banner(int(self.fw.params["MAV_SYSID"])):
+            self.link.statustext(MAV_SEVERITY.INFO, line, ep)
         return MAV_RESULT.ACCEPTED
 
     def cmd_get_home_position(self, ep: int, msg, p: Params7) -> int:

@@ -24,6 +24,7 @@ What goes on the wire, and where it differs from ArduSub, is in ``docs/mavlink.m
 from __future__ import annotations
 
 import contextlib
+import math
 import select
 import socket
 import threading
@@ -40,7 +41,7 @@ from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
-from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
+from .telemetry import BUILDERS, EARTH_RADIUS_M, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
 from .telemetry_extra import EXTRA_BUILDERS
 from .transports import Transport, make_transport
 from .vehicle_commands import VehicleCommands
@@ -113,6 +114,8 @@ class MavlinkLink:
         self._next_due: dict[int, int] = {}
         self._interval: dict[int, int | None] = {}
         self.after: list = []                         # messages a command asked for, sent after its ACK
+        self._ready = False                           # "ArduPilot Ready" said
+        self._armed = False
         self.builders: dict[int, Builder] = {**BUILDERS, **EXTRA_BUILDERS}
         self.battery = BatterySim(firmware.params)
         self.state.vibration = VibrationMonitor()
@@ -153,8 +156,8 @@ class MavlinkLink:
 
     @property
     def sysid(self) -> int:
-        """This vehicle's MAVLink system id (SYSID_THISMAV)."""
-        return int(self.fw.params["SYSID_THISMAV"])
+        """This vehicle's MAVLink system id (MAV_SYSID)."""
+        return int(self.fw.params["MAV_SYSID"])
 
     def start(self) -> MavlinkLink:
         """Start the I/O thread (once)."""
@@ -284,17 +287,36 @@ class MavlinkLink:
                 self._send_events()
 
     def _vehicle_state(self, snap: TelemetrySnapshot) -> None:
-        """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples."""
+        """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples,
+        the boot's "ArduPilot Ready" and home on arming."""
         st = self.state
+        if snap.has_tick and not self._ready:
+            self._ready = True
+            self.statustext(MAV_SEVERITY.INFO, "ArduPilot Ready")     # ArduSub's word that it has booted
+        if snap.armed and not self._armed:
+            self._home_on_arming(snap)
+        self._armed = snap.armed
         if snap.t is not None:
             if st.epoch_us is None:
                 st.epoch_us = int(time.time() * 1e6 - snap.t * 1e6)
             if st.vibration is not None:
                 st.vibration.update(snap)
+            if math.isfinite(snap.measured_x):
+                st.fix = (snap.t, snap.measured_x)
             self.vehicle_commands.sample(snap.measured_depth)
         st.battery = self.battery.update(snap.t, snap.thrust if snap.armed else ())
-        st.ekf_thresh = float(self.fw.params["FS_EKF_THRESH"])
+        st.ekf_sd_bad = float(self.fw.params["WK_EKF_SD_BAD"])
         self.joystick.update(snap.t)
+
+    def _home_on_arming(self, snap: TelemetrySnapshot) -> None:
+        """As ArduSub: arming moves home to where the vehicle is (with a position estimate), and GPS_GLOBAL_ORIGIN
+        and HOME_POSITION go to every ground station."""
+        if snap.has_tick and snap.ekf_converged and all(map(math.isfinite, snap.x_hat[:2])):
+            self.state.home = (snap.origin_lat + math.degrees(snap.x_hat[0] / EARTH_RADIUS_M), snap.origin_lon,
+                               -snap.x_hat[1])
+        for mid in (ID["GPS_GLOBAL_ORIGIN"], ID["HOME_POSITION"]):
+            for m in self.build(mid):
+                self.queue(m)
 
     def wake(self) -> None:
         with contextlib.suppress(OSError):   # full (already awake) or closed
@@ -312,7 +334,7 @@ class MavlinkLink:
     def _stream_schedule(self) -> tuple[tuple[int, int | None], ...]:
         """(message id, interval ns or None) of every scheduled message, in send order.
 
-        Rebuilt only when a parameter or a message's own interval changed (the SR0_* rates
+        Rebuilt only when a parameter or a message's own interval changed (the MAV1_* rates
         and overrides change rarely; reading ~24 of them from the table every tick cost more
         than the sends), so a change still takes effect on the next tick.
         """

@@ -103,12 +103,12 @@ def extended_sys_state(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def ekf_status_report(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """EKF_STATUS_REPORT: solution flags, and each 1-sigma over FS_EKF_THRESH as the test ratio (< 1 healthy)."""
+    """EKF_STATUS_REPORT: solution flags, and each 1-sigma over WK_EKF_SD_BAD as the test ratio (< 1 healthy)."""
     if not snap.has_tick or len(snap.sigma) < 2:
         return [mavlink.MAVLink_ekf_status_report_message(mavlink.EKF_UNINITIALIZED, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
     flags = _EKF_GOOD if snap.ekf_converged else (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_VERT
                                                   | mavlink.EKF_POS_VERT_ABS)
-    thresh = max(float(link.ekf_thresh), 1e-6)
+    thresh = max(float(link.ekf_sd_bad), 1e-6)
     ratio = lambda s: min(max(s / thresh, 0.0), 100.0) if math.isfinite(s) else 100.0   # noqa: E731
     horiz, vert = ratio(snap.sigma[0]), ratio(snap.sigma[1])
     return [mavlink.MAVLink_ekf_status_report_message(flags, horiz, horiz, vert, 0.0, 0.0, 0.0)]
