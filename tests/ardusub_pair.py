@@ -70,8 +70,10 @@ def ardusub_binary() -> str:
 
 
 def _free_instance() -> int:
-    """An ArduSub instance number ``-I N`` whose ports (5760/5762/5763 TCP, 5501 and 9005 UDP, + 10 N) are free."""
-    for n in random.sample(range(20, 600), 580):
+    """An ArduSub instance number ``-I N`` whose ports (5760/5762/5763 TCP, 5501 and 9005 UDP, + 10 N) are free.
+
+    N is ArduPilot's uint8: 0–255."""
+    for n in random.sample(range(20, 256), 236):
         tcp = [5760 + 10 * n, 5762 + 10 * n, 5763 + 10 * n]
         udp = [5501 + 10 * n, 9005 + 10 * n]
         if all(port_is_free(p, socket.SOCK_STREAM) for p in tcp) and all(port_is_free(p) for p in udp):
@@ -199,7 +201,7 @@ def start_ardusub(folder: Path, binary: str, speedup: float = SPEEDUP) -> Vehicl
         gcs = free_port()
         gs = _ground_station(gcs, speedup)
         n = _free_instance()
-        client = {"mavsdk": f"tcp://127.0.0.1:{5762 + 10 * n}", "dronekit": f"tcp:127.0.0.1:{5763 + 10 * n}"}
+        client = {"mavsdk": f"tcpout://127.0.0.1:{5762 + 10 * n}", "dronekit": f"tcp:127.0.0.1:{5763 + 10 * n}"}
         argv = [binary, "--model", "JSON:127.0.0.1", "--sim-port-out", str(plant_port),
                 "--sim-port-in", str(free_port()), "--defaults", str(folder / "defaults.parm"), "-I", str(n),
                 "-w", "--speedup", f"{speedup:g}", "--rate", str(ARDUSUB_RATE_HZ),
@@ -250,11 +252,9 @@ def _first_heartbeat(v: Vehicle, timeout: float) -> None:
 
 def documented(item: str) -> str | None:
     """The documented reason an item differs (:data:`DIFFERENCES`; a key ending in ``*`` is a prefix)."""
-    if item in DIFFERENCES:
-        return DIFFERENCES[item]
-    for key, why in DIFFERENCES.items():
-        if key.endswith("*") and item.startswith(key[:-1]):
-            return why
+    for key, (topic, why) in DIFFERENCES.items():
+        if key == item or (key.endswith("*") and item.startswith(key[:-1])):
+            return f"{topic}: {why}"
     return None
 
 

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import pytest
 from ardusub_pair import ROOT, Pair, Vehicle, documented, read_param_list, start_pair, write_report
+from conformance_differences import DIFFERENCES
 from mavlink_gcs import free_port
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -117,6 +118,14 @@ def reference_table() -> dict[str, tuple[float, str]]:
     with REFERENCE.open() as f:
         rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
     return {r["name"]: (float(r["value"]), r["type"]) for r in rows}
+
+
+def test_every_documented_difference_is_in_the_docs():
+    """Each documented difference's topic is a bold label in docs/mavlink.md's list of differences."""
+    doc = (ROOT / "docs" / "mavlink.md").read_text()
+    section = doc[doc.index("## Where Wavekeep differs from ArduSub"):]
+    missing = sorted({topic for topic, _why in DIFFERENCES.values() if f"**{topic}**" not in section})
+    assert not missing, f"docs/mavlink.md's differences do not list: {missing}"
 
 
 # --------------------------------------------------------------------------- identity
@@ -254,7 +263,7 @@ def test_sys_status_sensor_bits(pair: Pair):
 
 def test_named_value_floats_for_qgcs_sub_panel(pair: Pair):
     def probe(v: Vehicle) -> dict:
-        msgs = [m for m in v.wait(6.0) if m.get_type() == "NAMED_VALUE_FLOAT"]
+        msgs = [m for m in listen(v, 6.0) if m.get_type() == "NAMED_VALUE_FLOAT"]
         by: dict[str, list] = {}
         for m in msgs:
             by.setdefault(m.name, []).append(m)
@@ -270,21 +279,38 @@ def test_named_value_floats_for_qgcs_sub_panel(pair: Pair):
     pair.conform(*pair.ask(probe))
 
 
+def _lost(msgs) -> int:
+    """Messages the ground station missed in a run of the vehicle's (gaps in their MAVLink sequence numbers)."""
+    seqs = [m.get_seq() for m in msgs]
+    return sum((b - a - 1) % 256 for a, b in zip(seqs, seqs[1:], strict=False))
+
+
+def listen(v: Vehicle, sim_s: float) -> list:
+    """The autopilot's messages over ``sim_s`` of vehicle time, heard again (up to 3 times) if the ground
+    station lost more than 1 % of them: a loaded machine may drop datagrams, which would read as a low rate."""
+    for _attempt in range(3):
+        msgs = [m for m in v.wait(sim_s) if m.get_srcSystem() == 1 and m.get_srcComponent() == 1]
+        if _lost(msgs) <= len(msgs) // 100:
+            break
+    return msgs
+
+
 def test_streams_and_their_rates(pair: Pair):
     def probe(v: Vehicle) -> dict:
-        msgs = [m for m in v.wait(8.0) if m.get_srcSystem() == 1]
-        clock = [m.time_boot_ms for m in msgs if m.get_type() == "SYSTEM_TIME"]
-        span = (clock[-1] - clock[0]) / 1000.0
+        msgs = listen(v, 8.0)
+        clock = [i for i, m in enumerate(msgs) if m.get_type() == "SYSTEM_TIME"]
+        inside = msgs[clock[0]:clock[-1]]              # between the first and the last SYSTEM_TIME: a known span
+        span = (msgs[clock[-1]].time_boot_ms - msgs[clock[0]].time_boot_ms) / 1000.0
         counts: dict[str, int] = {}
-        for m in msgs:
+        for m in inside:
             counts[m.get_type()] = counts.get(m.get_type(), 0) + 1
         out = {}
         for t, n in counts.items():
             if t in ("STATUSTEXT", "COMMAND_ACK", "PARAM_VALUE"):
                 continue
-            names = len({m.name for m in msgs if m.get_type() == t}) if t == "NAMED_VALUE_FLOAT" else 1
+            names = len({m.name for m in inside if m.get_type() == t}) if t == "NAMED_VALUE_FLOAT" else 1
             rate = n / span / names            # NAMED_VALUE_FLOAT: per name
-            out[f"stream.{t}"] = round(rate) if rate >= 1.5 else round(rate, 1)
+            out[f"stream.{t}"] = round(rate) if rate >= 1.5 else round(rate * 2) / 2
         return out
     a, w = pair.ask(probe)
     for d in (a, w):
@@ -359,9 +385,11 @@ def test_gcs_failsafe_texts_and_severities(pair: Pair):
         try:
             first = v.wait(8.0)                 # FS_GCS_TIMEOUT 5 s
             later = v.wait(32.0)
+            since = v.gs.mark()
         finally:
             v.gs.heartbeats(True)
-        back = v.wait(2.0)
+        v.wait(2.0)
+        back = v.gs.log[since:]
         hb = [m for m in first if m.get_type() == "HEARTBEAT"]
         out = {"gcs_failsafe.texts": texts(first),
                "gcs_failsafe.armed after": bool(hb and hb[-1].base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED),
@@ -408,7 +436,7 @@ def test_commands_missions_and_parameter_sets(pair: Pair):
         result, msgs = command(v, M.MAV_CMD_DO_MOTOR_TEST, 1, 1, 1600, 0.2)
         out["motor_test disarmed"] = [result, texts(msgs)]
         result, msgs = command(v, M.MAV_CMD_PREFLIGHT_CALIBRATION, 0, 0, 1)
-        out["pressure calibration disarmed"] = [result, texts(msgs)]
+        out["pressure calibration disarmed"] = [result, texts(msgs + v.wait(3.0))]
         result, msgs = command(v, 31999)
         out["unknown command"] = [result, texts(msgs)]
         result, msgs = command(v, M.MAV_CMD_SET_MESSAGE_INTERVAL, 12000, 100000)
@@ -422,7 +450,7 @@ def test_commands_missions_and_parameter_sets(pair: Pair):
         for label, name, value in (("PARAM_SET accepted", "JS_GAIN_DEFAULT", 0.6),
                                    ("PARAM_SET NaN", "JS_GAIN_DEFAULT", float("nan")),
                                    ("PARAM_SET out of range", "JS_GAIN_DEFAULT", 7.0),
-                                   ("PARAM_SET read-only FORMAT_VERSION", "FORMAT_VERSION", 2.0),
+                                   ("PARAM_SET of one that means nothing here", "COMPASS_OFS_X", 5.0),
                                    ("PARAM_SET unknown name", "NO_SUCH_PARAM", 1.0)):
             since = gs.mark()
             gs.send(M.MAVLink_param_set_message(1, 1, name.encode(), value, M.MAV_PARAM_TYPE_REAL32))
@@ -515,7 +543,7 @@ def test_dronekit_identity(pair: Pair):
                                                                             "ftp", "set_attitude_target",
                                                                             "set_attitude_target_local_ned",
                                                                             "set_altitude_target_global_int",
-                                                                            "terrain", "mavlink2",
+                                                                            "terrain",
                                                                             "compass_calibration")},
                     "dronekit.mode": vehicle.mode.name, "dronekit.gps fix": vehicle.gps_0.fix_type}
         finally:

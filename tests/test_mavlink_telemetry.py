@@ -15,6 +15,7 @@ from mavlink_gcs import free_port, rate
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.mavlink import CAPABILITIES, MavlinkLink
+from firmware_py.mavlink.streams import Streams
 from firmware_py.modes import MAV_RESULT, Mode
 from firmware_py.params import load_params
 from firmware_py.sensors import depth_to_pressure
@@ -157,10 +158,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
         fw.scheduler.run_tick()
         for x_hat in (np.full(6, np.nan), np.full(6, np.inf), np.array([1e12, -1e12, 1e3, 1e9, -1e9, 1e9])):
             fw.last = dataclasses.replace(fw.last, x_hat=x_hat, tau_e_hat=x_hat[:3])
-            for mid in [*list(link._overrides), mavlink.MAVLINK_MSG_ID_HEARTBEAT]:
-                link._overrides.pop(mid, None)
-            link._next_due.clear()
-            link._interval.clear()
+            link.streams = Streams(fw.params)          # every stream due now
             link._outbox.clear()
             link.update(fw.scheduler.next_slot_ns())
             types = set()

@@ -41,7 +41,8 @@ from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
-from .telemetry import BUILDERS, EARTH_RADIUS_M, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
+from .streams import Streams
+from .telemetry import BUILDERS, EARTH_RADIUS_M, Builder, LinkState
 from .telemetry_extra import EXTRA_BUILDERS
 from .transports import Transport, make_transport
 from .vehicle_commands import VehicleCommands
@@ -108,11 +109,7 @@ class MavlinkLink:
         # update-thread state
         self.state = LinkState(sysid=self.sysid, counters=self.counters)
         self.snapshot: TelemetrySnapshot | None = None
-        self._overrides: dict[int, int] = {}          # msg id → interval ns, or -1: disabled
-        self._schedule: tuple[tuple[int, int | None], ...] = ()
-        self._schedule_key: tuple | None = None
-        self._next_due: dict[int, int] = {}
-        self._interval: dict[int, int | None] = {}
+        self.streams = Streams(firmware.params)
         self.after: list = []                         # messages a command asked for, sent after its ACK
         self._ready = False                           # "ArduPilot Ready" said
         self._armed = False
@@ -200,8 +197,7 @@ class MavlinkLink:
 
     def restart_streams(self, now_ns: int) -> None:
         """Start every stream's schedule afresh at ``now_ns`` (after the firmware's clock was rebased)."""
-        for mid in list(self._next_due):
-            self._next_due[mid] = int(now_ns)
+        self.streams.restart(now_ns)
         self.state.now_ns = int(now_ns)
 
     # ------------------------------------------------------------------ for the handlers (scheduler thread)
@@ -232,23 +228,11 @@ class MavlinkLink:
 
     def set_interval(self, mid: int, interval_ns: int | None) -> None:
         """A message's own interval (ns), −1 to turn it off, None to go back to its group's rate."""
-        if interval_ns is None:
-            self._overrides.pop(mid, None)
-        else:
-            self._overrides[mid] = int(interval_ns)
+        self.streams.set_interval(mid, interval_ns)
 
     def stream_interval(self, mid: int) -> int | None:
         """ns between two sends of a streamed message, or None when it is off."""
-        ov = self._overrides.get(mid)
-        if ov is not None:
-            return None if ov < 0 else ov
-        if mid == ID["HEARTBEAT"]:
-            return HEARTBEAT_INTERVAL_NS
-        group = MSG_GROUP.get(mid)
-        if group is None:                  # sent on request, or at a SET_MESSAGE_INTERVAL rate
-            return None
-        rate = self.fw.params[group]
-        return int(1e9 / rate) if rate > 0 else None
+        return self.streams.interval(mid)
 
     # ------------------------------------------------------------------ update
     def _update(self, slot_ns: int) -> None:
@@ -331,30 +315,10 @@ class MavlinkLink:
                 return
             self.statustext(severity, text)
 
-    def _stream_schedule(self) -> tuple[tuple[int, int | None], ...]:
-        """(message id, interval ns or None) of every scheduled message, in send order.
-
-        Rebuilt only when a parameter or a message's own interval changed (the MAV1_* rates
-        and overrides change rarely; reading ~24 of them from the table every tick cost more
-        than the sends), so a change still takes effect on the next tick.
-        """
-        params = self.fw.params
-        key = (id(params), params.version, tuple(self._overrides.items()))   # overrides: usually none
-        if key != self._schedule_key:
-            extra = tuple(mid for mid in self._overrides if mid not in MSG_GROUP and mid != ID["HEARTBEAT"])
-            self._schedule = tuple((mid, self.stream_interval(mid)) for mid in STREAMED + extra)
-            self._schedule_key = key
-        return self._schedule
-
     def _send_streams(self, now: int) -> None:
-        for mid, interval in self._stream_schedule():
-            if interval != self._interval.get(mid):
-                self._interval[mid] = interval
-                self._next_due[mid] = now
-            if interval is None or now < self._next_due[mid]:
-                continue
-            due = self._next_due[mid] + interval
-            self._next_due[mid] = due if due > now else now + interval
+        if self.streams.timesync_due(now):          # ArduPilot asks its ground stations to time-sync every 10 s
+            self.queue(mavlink.MAVLink_timesync_message(0, max(1, now)))
+        for mid in self.streams.due(now):
             try:
                 msgs = self.build(mid)
             except Exception as exc:       # one bad value must not silence the other streams
