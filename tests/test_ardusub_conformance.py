@@ -10,6 +10,7 @@ docs/mavlink.md). Skipped, with the reason, when ``WAVEKEEP_ARDUSUB`` does not n
 from __future__ import annotations
 
 import asyncio
+import itertools
 import csv
 import math
 import random
@@ -282,7 +283,7 @@ def test_named_value_floats_for_qgcs_sub_panel(pair: Pair):
 def _lost(msgs) -> int:
     """Messages the ground station missed in a run of the vehicle's (gaps in their MAVLink sequence numbers)."""
     seqs = [m.get_seq() for m in msgs]
-    return sum((b - a - 1) % 256 for a, b in zip(seqs, seqs[1:], strict=False))
+    return sum((b - a - 1) % 256 for a, b in itertools.pairwise(seqs))
 
 
 def listen(v: Vehicle, sim_s: float) -> list:
