@@ -10,8 +10,8 @@ docs/mavlink.md). Skipped, with the reason, when ``WAVEKEEP_ARDUSUB`` does not n
 from __future__ import annotations
 
 import asyncio
-import itertools
 import csv
+import itertools
 import math
 import random
 import re
