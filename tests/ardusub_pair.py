@@ -226,7 +226,9 @@ def start_wavekeep(folder: Path, speedup: float = SPEEDUP) -> Vehicle:
         gs = _ground_station(gcs, speedup)
         argv = [sys.executable, "-m", "sitl.harness.cli", "firmware", "--hal", f"sitl:127.0.0.1:{plant_port}",
                 "--hal-wait", "60", "--mavlink", f"udpout:127.0.0.1:{gcs}", "--mavlink", f"udpin:127.0.0.1:{clients}",
-                "--speedup", f"{speedup:g}", "--no-forecast"]
+                "--speedup", f"{speedup:g}", "--no-forecast", "--realtime", "off"]
+        # (no SCHED_FIFO: it would keep the firmware's clock going while the ground station, at normal
+        # priority like ArduSub, waits for a core, and the GCS failsafe would trip on a loaded machine)
         children.insert(0, _spawn("firmware", argv, folder, _env()))
         client = {"mavsdk": f"udpout://127.0.0.1:{clients}", "dronekit": f"udpout:127.0.0.1:{clients}"}
         v = Vehicle("Wavekeep", gs, children, speedup, notes=client)
@@ -353,8 +355,9 @@ PARAM_TYPE_NAMES = {mavlink.MAV_PARAM_TYPE_INT8: "INT8", mavlink.MAV_PARAM_TYPE_
                     mavlink.MAV_PARAM_TYPE_INT32: "INT32", mavlink.MAV_PARAM_TYPE_REAL32: "REAL32"}
 
 
-def read_param_list(v: Vehicle, timeout: float = 120.0) -> dict[str, tuple[float, str]]:
-    """PARAM_REQUEST_LIST, then PARAM_REQUEST_READ by index of whatever did not come: ``{name: (value, type)}``."""
+def read_param_list(v: Vehicle, timeout: float = 60.0) -> dict[str, tuple[float, str]]:
+    """PARAM_REQUEST_LIST, then PARAM_REQUEST_READ by index of whatever did not come (a burst may lose
+    datagrams), 20 at a time, until all have: ``{name: (value, type)}``."""
     gs = v.gs
     got: dict[str, tuple[float, str]] = {}
     seen: set[int] = set()
@@ -363,7 +366,6 @@ def read_param_list(v: Vehicle, timeout: float = 120.0) -> dict[str, tuple[float
     gs.send(mavlink.MAVLink_param_request_list_message(1, 1))
     end = time.monotonic() + timeout
     quiet_until = time.monotonic() + 10.0
-    asked: set[int] = set()
     while time.monotonic() < end:
         gs._pump(0.1)
         for m in gs.log[i:]:
@@ -371,17 +373,16 @@ def read_param_list(v: Vehicle, timeout: float = 120.0) -> dict[str, tuple[float
                 got[m.param_id] = (float(m.param_value), PARAM_TYPE_NAMES.get(m.param_type, str(m.param_type)))
                 seen.add(m.param_index)
                 count = m.param_count
-                quiet_until = time.monotonic() + 2.0
+                quiet_until = min(quiet_until, time.monotonic() + 1.0) if count and len(seen) >= count else \
+                    time.monotonic() + 1.0
         i = len(gs.log)
         missing = [k for k in range(count) if k not in seen]
         if count and not missing:
             break
-        if time.monotonic() > quiet_until:        # the list is over: ask for the rest one by one
+        if time.monotonic() > quiet_until:        # the list is over: ask for the rest, 20 at a time
             for k in missing[:20]:
-                if k not in asked or time.monotonic() > quiet_until + 1.0:
-                    gs.send(mavlink.MAVLink_param_request_read_message(1, 1, b"", k))
-                    asked.add(k)
-            quiet_until = time.monotonic() + 1.0
+                gs.send(mavlink.MAVLink_param_request_read_message(1, 1, b"", k))
+            quiet_until = time.monotonic() + 0.5
     return got
 
 

@@ -10,31 +10,34 @@ docs/mavlink.md). Skipped, with the reason, when ``WAVEKEEP_ARDUSUB`` does not n
 from __future__ import annotations
 
 import asyncio
-import csv
-import itertools
 import math
 import random
 import re
-import shutil
 import subprocess
-import time
-from pathlib import Path
 
 import pytest
 from ardusub_pair import ROOT, Pair, Vehicle, documented, read_param_list, start_pair, write_report
 from conformance_differences import DIFFERENCES
+from conformance_probes import (
+    MODE_NAMES,
+    M,
+    bits,
+    command,
+    disarm,
+    dronekit_installed,
+    heartbeat,
+    listen,
+    mavsdk_server,
+    read_params,
+    reference_table,
+    set_mode,
+    texts,
+    to_manual,
+    wait_position,
+)
 from mavlink_gcs import free_port
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 pytestmark = pytest.mark.processes
-
-M = mavlink
-MODE_NAMES = {0: "STABILIZE", 1: "ACRO", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 7: "CIRCLE", 9: "SURFACE",
-              16: "POSHOLD", 19: "MANUAL", 20: "MOTOR_DETECT", 21: "SURFTRAK", 99: "99"}
-NOISE = re.compile(r"^(EKF3 |AHRS: |GPS \d|Barometer \d|Calibrating barometer|RCInput|Field Elevation)")
-"""STATUSTEXTs of ArduSub's estimator, GPS driver and boot chatter: not what a test asked about."""
-REFERENCE = ROOT / "configs" / "firmware" / "ardusub_params.csv"
-
 
 @pytest.fixture(scope="module")
 def pair(tmp_path_factory):
@@ -47,78 +50,6 @@ def pair(tmp_path_factory):
     finally:
         write_report(p)
         p.stop()
-
-
-# --------------------------------------------------------------------------- helpers
-
-def texts(msgs, noise: bool = False) -> list[list]:
-    """[severity, text] of each STATUSTEXT (ArduSub's estimator and GPS chatter left out)."""
-    return [[m.severity, m.text] for m in msgs if m.get_type() == "STATUSTEXT" and (noise or not NOISE.match(m.text))]
-
-
-def heartbeat(v: Vehicle, pred=lambda m: True, sim_s: float = 2.0):
-    return v.gs.heartbeat(pred, timeout=v.wall(sim_s))
-
-
-def command(v: Vehicle, cmd: int, *params: float, sim_s: float = 2.0):
-    """COMMAND_LONG; (ACK result or None, every message heard until the ACK and 0.5 s of vehicle time after)."""
-    since = v.gs.mark()
-    ack = v.gs.command(cmd, *params, timeout=v.wall(sim_s))
-    v.wait(0.5)
-    return (None if ack is None else int(ack.result)), v.gs.log[since:]
-
-
-def read_params(v: Vehicle, names, sim_s: float = 3.0) -> dict[str, list | None]:
-    """PARAM_REQUEST_READ by name of each; [value, MAV_PARAM_TYPE] or None (no answer)."""
-    gs = v.gs
-    got: dict[str, list | None] = {}
-    for _attempt in range(2):
-        since = gs.mark()
-        for n in names:
-            if n not in got:
-                gs.send(M.MAVLink_param_request_read_message(1, 1, n.encode(), -1))
-        end = time.monotonic() + v.wall(sim_s)
-        while time.monotonic() < end and len(got) < len(names):
-            gs._pump(0.1)
-            for m in gs.log[since:]:
-                if m.get_type() == "PARAM_VALUE" and m.param_id in names:
-                    got[m.param_id] = [float(m.param_value), int(m.param_type)]
-            since = len(gs.log)
-    return {n: got.get(n) for n in names}
-
-
-def set_mode(v: Vehicle, mode: int) -> dict:
-    """SET_MODE (base_mode CUSTOM_MODE_ENABLED): the mode in the next heartbeat, what was said, any COMMAND_ACK."""
-    since = v.gs.mark()
-    v.gs.send(M.MAVLink_set_mode_message(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, mode))
-    msgs = v.wait(1.5)
-    hb = [m for m in msgs if m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1]
-    hb = hb[-1] if hb else heartbeat(v)
-    return {"mode": MODE_NAMES.get(hb.custom_mode, hb.custom_mode), "texts": texts(v.gs.log[since:]),
-            "acked": any(m.get_type() == "COMMAND_ACK" for m in v.gs.log[since:])}
-
-
-def wait_position(v: Vehicle) -> bool:
-    """Until the EKF reports an absolute horizontal position (ArduSub: its GPS; Wavekeep: the position fix)."""
-    return v.gs.wait_type("EKF_STATUS_REPORT", lambda m: m.flags & M.EKF_POS_HORIZ_ABS
-                          and m.flags & M.EKF_PRED_POS_HORIZ_ABS, timeout=v.wall(90.0)) is not None
-
-
-def to_manual(v: Vehicle) -> None:
-    v.gs.send(M.MAVLink_set_mode_message(1, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 19))
-    heartbeat(v, lambda m: m.custom_mode == 19)
-
-
-def disarm(v: Vehicle) -> None:
-    v.gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 0, timeout=v.wall(2.0))
-    heartbeat(v, lambda m: not m.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)
-
-
-def reference_table() -> dict[str, tuple[float, str]]:
-    """configs/firmware/ardusub_params.csv: ArduSub's table, read from the binary (its header says how)."""
-    with REFERENCE.open() as f:
-        rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
-    return {r["name"]: (float(r["value"]), r["type"]) for r in rows}
 
 
 def test_every_documented_difference_is_in_the_docs():
@@ -232,24 +163,20 @@ def test_the_reference_table_is_the_binarys(pair: Pair):
 
 # --------------------------------------------------------------------------- what the vehicle says it has
 
-def _bits(prefix: str) -> dict[int, str]:
-    return {getattr(M, n): n[len(prefix):] for n in dir(M) if n.startswith(prefix) and not n.endswith("ENUM_END")}
-
-
 def test_sys_status_sensor_bits(pair: Pair):
-    bits = {**_bits("MAV_SYS_STATUS_SENSOR_"), **{M.MAV_SYS_STATUS_AHRS: "AHRS", M.MAV_SYS_STATUS_GEOFENCE: "GEOFENCE",
+    names = {**bits("MAV_SYS_STATUS_SENSOR_"), **{M.MAV_SYS_STATUS_AHRS: "AHRS", M.MAV_SYS_STATUS_GEOFENCE: "GEOFENCE",
                                                    M.MAV_SYS_STATUS_LOGGING: "LOGGING",
                                                    M.MAV_SYS_STATUS_PREARM_CHECK: "PREARM_CHECK",
                                                    M.MAV_SYS_STATUS_REVERSE_MOTOR: "REVERSE_MOTOR",
                                                    M.MAV_SYS_STATUS_TERRAIN: "TERRAIN",
                                                    M.MAV_SYS_STATUS_OBSTACLE_AVOIDANCE: "OBSTACLE_AVOIDANCE"}}
-    bits[M.MAV_SYS_STATUS_SENSOR_3D_ACCEL] = "3D_ACCEL"     # (pymavlink also names 2 LEAK: an extended bit)
+    names[M.MAV_SYS_STATUS_SENSOR_3D_ACCEL] = "3D_ACCEL"    # (pymavlink also names 2 LEAK: an extended bit)
 
     def probe(v: Vehicle) -> dict:
         assert wait_position(v), f"{v.name}: no position estimate"
         s = v.gs.wait_type("SYS_STATUS", timeout=v.wall(2.0), since=v.gs.mark())
         out = {}
-        for bit, name in bits.items():
+        for bit, name in names.items():
             flags = "".join(c if getattr(s, f"onboard_control_sensors_{f}") & bit else "-"
                             for c, f in (("P", "present"), ("E", "enabled"), ("H", "health")))
             if flags != "---":
@@ -280,22 +207,6 @@ def test_named_value_floats_for_qgcs_sub_panel(pair: Pair):
     pair.conform(*pair.ask(probe))
 
 
-def _lost(msgs) -> int:
-    """Messages the ground station missed in a run of the vehicle's (gaps in their MAVLink sequence numbers)."""
-    seqs = [m.get_seq() for m in msgs]
-    return sum((b - a - 1) % 256 for a, b in itertools.pairwise(seqs))
-
-
-def listen(v: Vehicle, sim_s: float) -> list:
-    """The autopilot's messages over ``sim_s`` of vehicle time, heard again (up to 3 times) if the ground
-    station lost more than 1 % of them: a loaded machine may drop datagrams, which would read as a low rate."""
-    for _attempt in range(3):
-        msgs = [m for m in v.wait(sim_s) if m.get_srcSystem() == 1 and m.get_srcComponent() == 1]
-        if _lost(msgs) <= len(msgs) // 100:
-            break
-    return msgs
-
-
 def test_streams_and_their_rates(pair: Pair):
     def probe(v: Vehicle) -> dict:
         msgs = listen(v, 8.0)
@@ -324,7 +235,7 @@ def test_gps_raw_int_and_ekf_status(pair: Pair):
     def probe(v: Vehicle) -> dict:
         g = v.gs.wait_type("GPS_RAW_INT", timeout=v.wall(2.0), since=v.gs.mark())
         e = v.gs.wait_type("EKF_STATUS_REPORT", timeout=v.wall(2.0), since=v.gs.mark())
-        flags = sorted(n for bit, n in _bits("EKF_").items() if bit and e.flags & bit and n not in ("UNINITIALIZED",))
+        flags = sorted(n for bit, n in bits("EKF_").items() if bit and e.flags & bit and n not in ("UNINITIALIZED",))
         return {"gps_raw_int.fix_type": g.fix_type, "gps_raw_int.satellites_visible": g.satellites_visible,
                 "gps_raw_int.has position": g.lat != 0, "ekf_status.flags": flags}
     pair.conform(*pair.ask(probe))
@@ -468,22 +379,13 @@ def test_commands_missions_and_parameter_sets(pair: Pair):
 
 # --------------------------------------------------------------------------- third-party clients
 
-def _mavsdk_server() -> str | None:
-    try:
-        import mavsdk
-    except ImportError:
-        return None
-    path = Path(mavsdk.__file__).parent / "bin" / "mavsdk_server"
-    return str(path) if path.exists() else shutil.which("mavsdk_server")
-
-
-@pytest.mark.skipif(_mavsdk_server() is None, reason="MAVSDK-Python (mavsdk<4, with mavsdk_server) not installed")
+@pytest.mark.skipif(mavsdk_server() is None, reason="MAVSDK-Python (mavsdk<4, with mavsdk_server) not installed")
 def test_mavsdk_health_and_parameters(pair: Pair, tmp_path):
     def probe(v: Vehicle) -> dict:
         from mavsdk import System
         grpc = free_port(__import__("socket").SOCK_STREAM)
         log = (tmp_path / f"mavsdk-{v.name}.log").open("w")
-        server = subprocess.Popen([_mavsdk_server(), "-p", str(grpc), "--sysid", "255", v.notes["mavsdk"]],
+        server = subprocess.Popen([mavsdk_server(), "-p", str(grpc), "--sysid", "255", v.notes["mavsdk"]],
                                   stdout=log, stderr=subprocess.STDOUT)
 
         async def session() -> dict:
@@ -520,15 +422,8 @@ def test_mavsdk_health_and_parameters(pair: Pair, tmp_path):
     pair.conform(*pair.ask(probe))
 
 
-def _dronekit() -> bool:
-    try:
-        import dronekit  # noqa: F401
-    except Exception:
-        return False
-    return True
-
-
-@pytest.mark.skipif(not _dronekit(), reason="dronekit2 not installed (dronekit 2.9 does not import on Python 3.11)")
+@pytest.mark.skipif(not dronekit_installed(),
+                    reason="dronekit2 not installed (dronekit 2.9 does not import on Python 3.11)")
 def test_dronekit_identity(pair: Pair):
     def probe(v: Vehicle) -> dict:
         from dronekit import connect

@@ -79,3 +79,27 @@ def test_parameter_types_are_ardusubs_and_set_converts_like_ap_param(v):
         assert gs.wait_type("STATUSTEXT", lambda m: m.text.startswith("FS_GCS_ENABLE not set"), 2, since) is not None
     # Floats keep their fraction
     assert gs.set_param("WK_FF_GAIN", 0.35).param_value == pytest.approx(0.35) and params["WK_FF_GAIN"] == 0.35
+
+
+def test_ardusubs_parameters_are_served_with_ardusubs_types_and_defaults():
+    """Every parameter of ArduSub 4.7's table (configs/firmware/ardusub_params.csv, read from the real binary)
+    is in the table with ArduSub's type, and with ArduSub's default unless docs/mavlink.md says why not
+    (the ``param.value.NAME`` entries of tests/conformance_differences.py); the 4.7 names, not the old ones."""
+    from conformance_differences import DIFFERENCES
+
+    from firmware_py.ardusub_params import reference_table
+    from firmware_py.params import load_params
+
+    params = load_params()
+    wrong = {}
+    for name, value, ptype in reference_table():
+        if name not in params:
+            wrong[name] = "missing"
+        elif params.definition(name).ptype != ptype:
+            wrong[name] = f"type {params.definition(name).ptype}, ArduSub's {ptype}"
+        elif not math.isclose(params[name], value, rel_tol=1e-6, abs_tol=1e-6) and \
+                f"param.value.{name}" not in DIFFERENCES:
+            wrong[name] = f"{params[name]!r}, ArduSub's {value!r}"
+    assert not wrong, wrong
+    assert params["MAV_GCS_SYSID"] == 255 and params["FS_PILOT_INPUT"] == 2 and params["ARMING_CHECK"] == 448
+    assert not {"SYSID_MYGCS", "SYSID_THISMAV", "SR0_EXTRA1", "JS_LIGHTS_STEP"} & set(params.names())

@@ -37,6 +37,7 @@ from ..telemetry_snapshot import TelemetrySnapshot
 from .battery import BatterySim
 from .commands import Dispatcher
 from .ftp import FtpResponder
+from .identity import custom_version
 from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
@@ -126,6 +127,7 @@ class MavlinkLink:
         self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages,
                                                **self.missions.messages, **self.ftp.messages}
         self.lockstep = CompanionLockstep(self) if lockstep else None   # SITL: wait for a companion each tick
+        custom_version()                  # asks git once, now: never inside the 20 Hz tick
         self._open_endpoints()
 
     def _open_endpoints(self) -> None:
