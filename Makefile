@@ -10,7 +10,13 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[test,lint]'
+	$(BIN)/pip install --quiet -e '.[test,lint,view]'
+	# The real-browser test of the view (tests/test_view_browser.py, skipped where either cannot install):
+	# Debian's Chromium, driven by Playwright's Python client (it drives /usr/bin/chromium; no browser download)
+	-command -v chromium >/dev/null || (apt-get install -y chromium >/dev/null 2>&1 || \
+	  (apt-get update >/dev/null 2>&1 && apt-get install -y chromium >/dev/null 2>&1)) || \
+	  echo "chromium not installed: the browser test of the view will be skipped"
+	-$(BIN)/pip install --quiet playwright
 	# A headless MAVProxy for the ground-station acceptance test (its GUI dependencies are not needed)
 	$(BIN)/pip install --quiet --no-deps MAVProxy==1.8.75 pyserial
 	# Third-party MAVLink clients for tests/test_mavlink_clients.py (skipped where they cannot be installed):

@@ -8,6 +8,7 @@ from benchmarks import (
     bench_sim,
     bench_speed,
     bench_timing,
+    bench_view,
 )
 
 if __name__ == "__main__":
@@ -19,3 +20,4 @@ if __name__ == "__main__":
     bench_campaign.main()
     bench_speed.main([])
     bench_sim.main(["--repeat", "1"])
+    bench_view.main([])

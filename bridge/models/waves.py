@@ -36,6 +36,7 @@ __all__ = [
     "G",
     "WaveComponents",
     "elevation",
+    "elevation_grid",
     "elevation_xy",
     "particle_acceleration",
     "particle_kinematics",
@@ -218,13 +219,31 @@ def elevation_xy(c: WaveComponents, x, y, t) -> np.ndarray:
     return _elevation_of_phase(c, th)
 
 
+def _second_order_amplitude(c: WaveComponents) -> np.ndarray:
+    """Amplitude (m) of each component's Stokes self-interaction term, the cos 2θ wave."""
+    xx = np.exp(-2.0 * c.k * c.water_depth)
+    factor = 2.0 * (1.0 + xx) * (1.0 + 4.0 * xx + xx * xx) / (1.0 - xx) ** 3
+    return 0.25 * c.k * c.amplitude**2 * factor
+
+
 def _elevation_of_phase(c: WaveComponents, th: np.ndarray) -> np.ndarray:
     """Σ A cos θ plus the Stokes self-interaction terms, given the phases θ (shape S + (N,))."""
     eta = np.cos(th) @ c.amplitude
     if c.second_order:
-        xx = np.exp(-2.0 * c.k * c.water_depth)
-        factor = 2.0 * (1.0 + xx) * (1.0 + 4.0 * xx + xx * xx) / (1.0 - xx) ** 3
-        eta = eta + np.cos(2.0 * th) @ (0.25 * c.k * c.amplitude**2 * factor)
+        eta = eta + np.cos(2.0 * th) @ _second_order_amplitude(c)
+    return eta
+
+
+def elevation_grid(c: WaveComponents, x, t) -> np.ndarray:
+    """ζ (m, up) on the grid of times ``t`` (s, T) × points ``x`` (m, X along y = 0): :func:`elevation`
+    of every pair, as complex matrix products (the phase k x − ω t + ε splits into a factor of x and
+    one of t), for drawing a sea surface over a whole run at once. Shape (T, X)."""
+    x, t = np.asarray(x, dtype=float).ravel(), np.asarray(t, dtype=float).ravel()
+    ex = np.exp(1j * (c.kx * x[:, None] + c.phase))         # X × N
+    et = np.exp(-1j * (c.omega * t[:, None]))                # T × N
+    eta = ((et * c.amplitude) @ ex.T).real
+    if c.second_order:
+        eta += ((et * et * _second_order_amplitude(c)) @ (ex * ex).T).real
     return eta
 
 

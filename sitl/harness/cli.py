@@ -9,6 +9,8 @@
     wavekeep thrust    --pattern sine --axis heave --arm             # stream thrust demands over MAVLink
     wavekeep sea       --case W1 --duration 1800                     # the realised sea at the vehicle
     wavekeep openloop  --case W3 --out runs/openloop-W3              # the passive vehicle in the sea
+    wavekeep view      runs/sim                                      # a run, .rrd or .tlog in the 3-D viewer
+    wavekeep tlog      runs/sim/mission.tlog --out runs/tlog         # any tlog's figures and CSV
 
 Every --case takes a name from configs/sea/ or a path to a sea YAML file. Bad input (a bad
 option, config or output folder) prints one line `wavekeep CMD: ...` and exits with 2;
@@ -20,7 +22,7 @@ import argparse
 import sys
 
 from .blas import use_one_blas_thread
-from .commands import compare, live, missions, processes, world
+from .commands import compare, live, missions, processes, view, world
 from .commands.options import Parser, UsageError
 
 __all__ = ["build_parser", "main"]
@@ -47,6 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_parsers(sub)
     live.add_parsers(sub)
     world.add_parsers(sub)
+    view.add_parsers(sub)
     return parser
 
 

@@ -118,7 +118,7 @@ def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duratio
 
 def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[_Child], progress) -> float:
     """The pilot: arm in MANUAL (the boot mode), let the companion fly to the end of the mission, disarm."""
-    gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
+    gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
     try:
         gcs.pump(lambda m: m.get_type() == "HEARTBEAT" and m.get_srcSystem() == 1, "the vehicle's heartbeat")
         time.sleep(0.2)

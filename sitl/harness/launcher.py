@@ -32,6 +32,7 @@ import struct
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -72,6 +73,7 @@ class SimOptions:
     ready_timeout_s: float = 60.0
     extra_params: list[str] = field(default_factory=list)
     plots: bool = True            # draw time_history.png (matplotlib: about a second)
+    downlink_tap: Callable[[bytes], None] | None = None   # each MAVLink frame the GCS hears (the live view)
 
 
 def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
@@ -159,7 +161,7 @@ def launch(opt: SimOptions, progress=None) -> dict:
     try:
         # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
         # socket instead of being lost, so the flight need not wait a second for the next one.
-        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children)
+        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
     except KeyboardInterrupt:
@@ -269,7 +271,7 @@ _BATCH_S = 0.005                            # s: the flight loop's wait for more
 class _GroundStation:
     """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
 
-    def __init__(self, port: int, tlog: Path, children: list[_Child]):
+    def __init__(self, port: int, tlog: Path, children: list[_Child], tap: Callable[[bytes], None] | None = None):
         os.environ["MAVLINK20"] = "1"
         from pymavlink import mavutil
         self.mavlink = mavutil.mavlink
@@ -285,6 +287,7 @@ class _GroundStation:
         self._epoch_us: int | None = None            # Unix µs at vehicle time 0, from SYSTEM_TIME
         self._vehicle_us = 0
         self._stamp = 0
+        self.tap = tap                                # called with each frame logged (one append: the live view)
         self.conn.mav.set_send_callback(lambda msg: self._log(msg))
 
     def _log(self, m) -> None:
@@ -305,6 +308,8 @@ class _GroundStation:
             self._epoch_us = int(time.time() * 1e6)
         self._stamp = max(self._stamp, self._epoch_us + self._vehicle_us)
         self.tlog.write(_TLOG_STAMP.pack(self._stamp & ~3) + buf)
+        if self.tap is not None:
+            self.tap(buf)
 
     def _keep_alive(self) -> None:
         """Heartbeat every 0.5 s; a LaunchError if a child has died."""

@@ -42,6 +42,7 @@ class LiveSim:
         self.firmware.add_task(Task("gcs", rate, self.link.update))
         self.firmware.add_task(Task("world", rate, self._step_world))
         self.history: list[list[float]] = []   # t, x, z, θ, τ_X, τ_Z, τ_M per slot (for the summary)
+        self.on_slot: Callable[[object, object], None] | None = None   # (plant state, tick record): the view's
         self.on_event = on_event
         if on_event is not None:   # the firmware's STATUSTEXT events (arming, failsafes...) as the link sends them
             send = self.link.statustext
@@ -62,6 +63,8 @@ class LiveSim:
         s, last = self.setup.plant.state, self.firmware.last
         tau = list(last.control.tau) if last is not None else [0.0, 0.0, 0.0]
         self.history.append([s.t, *s.eta, *tau])
+        if self.on_slot is not None and last is not None:
+            self.on_slot(s, last)
 
     def _notes(self) -> None:
         """Mode changes and the GCS failsafe, for ``on_event`` (the log) only: as ArduSub, the vehicle says

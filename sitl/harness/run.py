@@ -73,6 +73,7 @@ class DSWPFeeder:
         self._next = 0.0
         self.seq = 0
         self.failed = 0
+        self.history: list[tuple[float, Any]] = []   # (t, the forecast's components) as handed over: the view's
 
     def advance(self, t: float) -> None:
         if t + 1e-9 < self._next:
@@ -88,16 +89,18 @@ class DSWPFeeder:
             self.failed += 1
             return
         self.fw.forecast.offer(f)
+        self.history.append((t, f.components()))
 
 
 def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_eta=None,
-                  clock: Clock | None = None) -> MissionSetup:
+                  clock: Clock | None = None, sea: Sea | None = None) -> MissionSetup:
     """Build sea, plant, in-process HAL and firmware for one mission (see :func:`run_mission`).
 
     ``params`` is the parameter table to start from (default: ``configs/firmware/params.yaml``);
     the spec's overrides go on top. ``clock`` paces the firmware (default: lockstep simulated time).
+    ``sea`` flies a sea built by the caller (a regular wave, still water) instead of the spec's case.
     """
-    sea = Sea.load(spec.case, seed=spec.seed, overrides=spec.sea)
+    sea = Sea.load(spec.case, seed=spec.seed, overrides=spec.sea) if sea is None else sea
     mcfg = load_mission_config(spec.mission)
     vcfg = load_vehicle_config(spec.vehicle)
     params = (params or load_params()).copy()
@@ -144,21 +147,22 @@ def take_off(m: MissionSetup) -> None:
 
 
 def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: bool = False,
-                initial_eta=None) -> RunResult:
+                initial_eta=None, sea: Sea | None = None) -> RunResult:
     """Fly one mission and return its results and per-tick time series.
 
     The spec's ``seed`` sets the sea realisation (default: the sea config's)
     and, through it, the sensor noise and forecast error streams.
     ``initial_eta`` starts the vehicle at another pose [x, z, θ] than the
-    setpoint (a setpoint step).
+    setpoint (a setpoint step); ``sea`` as in :func:`build_mission`.
     """
-    m = build_mission(spec, params, initial_eta)
+    m = build_mission(spec, params, initial_eta, sea=sea)
     sea, plant, hal, fw, forecast, setpoint, rate = m.sea, m.plant, m.hal, m.firmware, m.forecast, m.setpoint, m.rate_hz
     duration = m.duration_s
     n = int(round(duration * rate))
     take_off(m)
     n -= 1
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
+    events: list[tuple[float, int, str]] = []   # the firmware's STATUSTEXTs (mode, arming, failsafes), for the view
     wall0 = time.perf_counter()
     with ProgressBar(n, f"{sea.name} {spec.label}", enabled=None if progress else False) as bar:
         for k in range(n):
@@ -172,6 +176,9 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
             log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
+            if fw.events:
+                events.extend((truth.t, severity, text) for severity, text in fw.events)
+                fw.events.clear()
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
@@ -186,5 +193,5 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     results = mission_results(sea, spec, duration, rate, setpoint, log, stats)
     results["ekf"].update(rejected=dict(fw.ekf.rejected), accepted=dict(fw.ekf.accepted))
     results.update(wall_time_s=wall, speed_x_realtime=duration / wall if wall > 0 else None)
-    return RunResult(results, log)
+    return RunResult(results, log, events, m.feeder.history if m.feeder is not None else None)
 

@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from . import options as o
+from . import view
 
 DEFAULT_GCS = "udpout:127.0.0.1:14550"
 
@@ -27,6 +28,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--signing-key", default=None, help="file with a 32-byte MAVLink 2 signing key")
     p.add_argument("--log", default=None, metavar="FILE",
                    help="where to write the events and the results table (default: runs/live-<UTC time>.log)")
+    view.add_record_options(p, live=True)
     p.set_defaults(func=cmd_live)
 
     p = sub.add_parser("thrust", help="stream thrust demands to a vehicle at 20 Hz (bench tests)",
@@ -74,16 +76,31 @@ def cmd_live(args: argparse.Namespace) -> int:
         log.write(line + "\n")
         log.flush()
 
+    view.require_view(args)
+    recorder: list = []    # the live recording, once the vehicle is built (events before it are not drawn)
+
     def event(severity: int, text: str) -> None:
         say(f"[{time.monotonic() - t0:7.1f} s] {text}")
+        if recorder:
+            recorder[0].event(sim.setup.plant.state.t, severity, text)
 
+    server = None
     try:
         sim = LiveSim(spec, mavlink=endpoints, speedup=args.speedup, signing_key=key, on_event=event)
+        if args.view or not args.no_record:
+            server = view.live_recording(args, sim, spec, log_path, recorder, say)
         say(f"Wavekeep live: {args.case}, {spec.label}, MAVLink on {', '.join(endpoints)}, speed-up "
             f"{args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops. "
             f"Log: {log_path}")
-        _fly(sim, spec.label, args, t0, say)
+        _fly(sim, spec.label, args, time.monotonic(), say)   # (the clock starts once the recording is set up)
     finally:
+        if recorder:
+            recorder[0].close()
+            if not args.no_record:
+                say(f"wrote {log_path.with_suffix('.rrd')}: the 3-D view of the flight "
+                    f"(wavekeep view {log_path.with_suffix('.rrd')})")
+        if server is not None:
+            server.stop()
         log.close()
     return 0
 

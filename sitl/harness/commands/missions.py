@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from . import options as o
+from . import view
 
 
 def add_parsers(sub) -> None:
@@ -19,6 +20,7 @@ def add_parsers(sub) -> None:
     o.add_params(p)
     o.add_world(p)
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
+    view.add_record_options(p)
     o.add_out(p)
     p.set_defaults(func=cmd_run)
 
@@ -67,6 +69,7 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
     print(format_table({r["label"]: r}))
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))
+    view.record(args, out, spec, r["seed"], result)
     return 0
 
 
@@ -80,7 +83,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if args.seeds is not None:
         return _reproduce_seeds(args)
     from ..provenance import write_run_record
-    from ..reproduce import format_reproduce_table, reproduce
+    from ..reproduce import format_reproduce, reproduce
 
     o.check_duration(args.duration, "station_keeping")
     overrides = o.overrides(args)
@@ -94,8 +97,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"wavekeep reproduce: interrupted; stopped the cluster, wrote nothing to {out}", file=sys.stderr)
         return 130
     write_run_record(out, args.argv, seed=args.seed, parameter_overrides=overrides, duration_s=args.duration)
-    print(format_reproduce_table(doc["runs"], doc["summary"]))
-    print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
+    print(format_reproduce(doc))
+    n_runs = len(doc["runs"]) + len(doc["corrected"]["runs"])
+    print(f"{n_runs} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
           + ("" if args.no_plots else " and the figures"))
     return 0
 

@@ -6,6 +6,7 @@ import socket
 import sys
 
 from . import options as o
+from . import view
 
 
 def add_parsers(sub) -> None:
@@ -54,6 +55,7 @@ def add_parsers(sub) -> None:
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
+    view.add_record_options(p, live=True)
     o.add_out(p, required=False, default="runs/sim")
     p.set_defaults(func=cmd_sim)
 
@@ -67,55 +69,87 @@ SIM_PORTS = {"--plant-port": (9002, socket.SOCK_DGRAM, "plant"), "--gcs-port": (
 """``wavekeep sim``'s loopback ports: option → (default, socket kind, what uses it)."""
 
 
-def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
-    """The ports given, and for each left out its default, or a free port (said on stderr) if that is taken."""
-    from ..ports import port_or_free
+def _given_ports(args: argparse.Namespace) -> dict[str, int | None]:
+    """The port options as given (None where left out), by option name."""
+    return {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
 
+
+def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
+    """The ports given, and for each left out its default, or a free port (said on stderr) if that is taken,
+    by another program or by a port given for another process."""
+    from ..ports import free_port, port_or_free
+
+    given = _given_ports(args)
+    used = {port for port in given.values() if port is not None}
     ports = {}
     for name, (default, kind, what) in SIM_PORTS.items():
-        given = getattr(args, name[2:].replace("-", "_"))
-        ports[name] = given if given is not None else port_or_free(default, kind)
-        if given is None and ports[name] != default:
-            print(f"wavekeep sim: port {default} ({what}) is taken; using {ports[name]} ({name})", file=sys.stderr)
+        port = given[name]
+        if port is None:
+            port = port_or_free(default, kind)
+            while port in used:
+                port = free_port(kind)
+            used.add(port)
+            if port != default:
+                print(f"wavekeep sim: port {default} ({what}) is taken; using {port} ({name})", file=sys.stderr)
+        ports[name] = port
     return ports
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
     from ..launcher import LaunchError, SimOptions, launch
-    from ..metrics import format_table
-    from ..provenance import write_run_record
 
-    given = {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
+    given = _given_ports(args)
     names = [name for name, port in given.items() if port is not None]
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             if given[a] == given[b]:
                 raise o.UsageError(f"{a} and {b} are both {given[a]}: each process needs its own port")
-    ports = _sim_ports(args)
     spec = o.run_spec(args)
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
+    view.require_view(args)
     out = o.check_out(args.out, force=args.force)
-    opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
-                     gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
+    ports = _sim_ports(args)      # after every check: a refused command says one line, whatever holds the ports
+    live = view.SimView(args, spec) if args.view else None
     try:
-        if args.companion:
-            from ..companion_launch import launch_companion
-            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
-        else:
-            r = launch(opt, progress=None)
-    except LaunchError as exc:
-        print(f"wavekeep sim: {exc}", file=sys.stderr)
-        return exc.status
+        opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
+                         gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots,
+                         downlink_tap=live.tap if live else None)
+        try:
+            if args.companion:
+                from ..companion_launch import launch_companion
+                r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+            else:
+                r = launch(opt, progress=None)
+        except LaunchError as exc:
+            print(f"wavekeep sim: {exc}", file=sys.stderr)
+            return exc.status
+        finally:
+            if live:
+                live.close()
+        _report_sim(args, out, spec, r, live)
+    finally:
+        if live:
+            live.stop()
+    return 0
+
+
+def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
+    """What ``sim`` prints and writes after its mission: run.json, the table, the recording."""
+    from ..metrics import format_table
+    from ..provenance import write_run_record
+
     write_run_record(out, args.argv, spec, seed=r["seed"])
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
     print(format_table({r["label"]: r}))
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
           + ", mission.tlog, *.log, run.json")
-    return 0
+    view.record(args, out, spec, r["seed"], grpc_url=live.server.grpc_url if live else None)
+    if live:
+        live.linger()
 
 
 def cmd_forecast(args: argparse.Namespace) -> int:
