@@ -43,8 +43,8 @@ class GCSFailsafe:
     A heartbeat after the action: "GCS Failsafe Cleared" (WARNING).
     """
 
-    def __init__(self, params: ParameterTable, say: Say):
-        self.params, self.say = params, say
+    def __init__(self, params: ParameterTable, say: Say, note: Say | None = None):
+        self.params, self.say, self.note = params, say, note   # note: the run's log only (ArduSub says nothing)
         self.active = False
         self.last_seen: float | None = None     # vehicle time (s) of the last GCS heartbeat
         self.last_warn = 0.0                    # vehicle time (s) of the last "heartbeat lost"
@@ -68,6 +68,8 @@ class GCSFailsafe:
         if self.active or not armed:
             return FailsafeAction.NONE
         self.active = True
+        if self.note is not None:
+            self.note(MAV_SEVERITY.CRITICAL, "GCS failsafe")
         return action
 
 

@@ -126,7 +126,8 @@ class Firmware:
         self.armed = False
         self.pilot = PilotInput()
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
-        self.gcs_failsafe = GCSFailsafe(params, self.say)
+        self.notes: deque[tuple[int, str]] = deque(maxlen=64)   # for logs only: what ArduSub does not say
+        self.gcs_failsafe = GCSFailsafe(params, self.say, self.note)
         self.ekf_failsafe = EKFFailsafe(params, self.say)
         self.failsafe_pilot = False      # the GCS link's pilot-input failsafe has tripped (the heartbeat says so)
         self.output_faults = 0           # non-finite commands replaced by neutral
@@ -194,6 +195,10 @@ class Firmware:
         """Queue a STATUSTEXT."""
         self.events.append((int(severity), text[:50]))
 
+    def note(self, severity: int, text: str) -> None:
+        """Queue an event for the run's log only (a mode change, a failsafe's trip: ArduSub says neither)."""
+        self.notes.append((int(severity), text))
+
     def request_mode(self, mode: int) -> MAV_RESULT:
         """Switch flight mode as ArduSub does: a refused mode is said in its words and the mode kept."""
         why = mode_refusal(mode, self.mode, self.ekf.converged(), self.ekf.initialised and self.sensors_healthy)
@@ -209,6 +214,7 @@ class Firmware:
         self.setpoint = FLIGHT_MODES[m].enter(self.mode, pose, self.setpoint)
         self.mode = m
         self.controller.reset()
+        self.note(MAV_SEVERITY.INFO, f"Mode {m.name}")
         if FLIGHT_MODES[m].entry_text:          # ArduSub announces no mode change, but a few modes speak
             self.say(MAV_SEVERITY.INFO, FLIGHT_MODES[m].entry_text)
 

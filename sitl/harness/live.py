@@ -51,32 +51,23 @@ class LiveSim:
                 on_event(severity, text)
                 send(severity, text, ep)
             self.link.statustext = tapped  # type: ignore[method-assign]
-        self._seen: tuple = (self.firmware.mode, False)     # what _notes last told on_event
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.realtime = realtime
         self.scheduling = "normal"
 
     def _step_world(self, _slot) -> None:
-        self._notes()
+        notes = self.firmware.notes             # mode changes, the GCS failsafe: for the log, not sent
+        while notes:
+            severity, text = notes.popleft()
+            if self.on_event is not None:
+                self.on_event(severity, text)
         self.setup.hal.step_world()
         s, last = self.setup.plant.state, self.firmware.last
         tau = list(last.control.tau) if last is not None else [0.0, 0.0, 0.0]
         self.history.append([s.t, *s.eta, *tau])
         if self.on_slot is not None and last is not None:
             self.on_slot(s, last)
-
-    def _notes(self) -> None:
-        """Mode changes and the GCS failsafe, for ``on_event`` (the log) only: as ArduSub, the vehicle says
-        neither on MAVLink (a mode shows in the heartbeat; the failsafe's text waits 30 s from boot)."""
-        fw = self.firmware
-        now = (fw.mode, fw.failsafe_gcs)
-        if self.on_event is not None and now != self._seen:
-            if now[0] != self._seen[0]:
-                self.on_event(6, f"Mode {fw.mode.name}")
-            if now[1] and not self._seen[1]:
-                self.on_event(2, "GCS failsafe")
-        self._seen = now
 
     def summary(self) -> dict | None:
         """RMSE, max error and mean power per DoF over the whole live run (None if under 2 s)."""

@@ -85,7 +85,6 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
     estimate_error = log[:, c["x_hat"]:c["q_hat"] + 1] - log[:, 1:7]
     return {
         "case": sea.name,
-        "controller": spec.controller,
         "forecast": spec.forecast_source,
         "forecast_snr_db": spec.snr_db if spec.ff else None,
         "seed": sea.seed,

@@ -176,9 +176,10 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
             log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
-            if fw.events:
-                events.extend((truth.t, severity, text) for severity, text in fw.events)
-                fw.events.clear()
+            for queue in (fw.notes, fw.events):       # log-only notes (mode changes...), then STATUSTEXTs
+                if queue:
+                    events.extend((truth.t, severity, text) for severity, text in queue)
+                    queue.clear()
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
