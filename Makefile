@@ -24,10 +24,11 @@ $(STAMP): pyproject.toml
 	-$(BIN)/pip install --quiet "mavsdk<4" dronekit2
 	touch $(STAMP)
 
-# make run ARGS="--case W1 --duration 60": options are passed through (later ones win); --force reuses the folder
+# make run ARGS="--case W1 --duration 60": options are passed through (later ones win); the folder follows them
+# (runs/sim-W1-cpd_ff-60s; docs: `wavekeep sim -h`, --out), and --force replaces that folder's previous run
 ARGS ?=
 run: $(STAMP)
-	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --out runs/sim-W3-cpd_ff --force $(ARGS)
+	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --force $(ARGS)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -80,7 +80,7 @@ def _one(duration: float, out: Path, extra: list[str]) -> dict:
     cpu: dict[str, float] = {}
 
     def stop(self, timeout: float = 10.0) -> int | None:
-        """``_Child.stop`` that reaps with ``wait4``, keeping the child's CPU time."""
+        """``Child.stop`` that reaps with ``wait4``, keeping the child's CPU time."""
         if self.proc.returncode is None:
             self.proc.send_signal(signal.SIGTERM)
             end = time.monotonic() + timeout
@@ -98,7 +98,7 @@ def _one(duration: float, out: Path, extra: list[str]) -> dict:
         self._log.close()
         return self.proc.returncode
 
-    launcher._Child.stop = stop  # type: ignore[method-assign]
+    launcher.Child.stop = stop  # type: ignore[method-assign]
     t0 = time.perf_counter()
     status = main(["sim", "--case", "W3", "--controller", "cpd_ff", "--duration", str(duration),
                    "--out", str(out), "--force", *extra])

@@ -32,7 +32,7 @@ from sitl.harness.spec import RunSpec
 _CLI = ["-m", "sitl.harness.cli"]
 
 
-class _ProfiledChild(launcher._Child):
+class _ProfiledChild(launcher.Child):
     """A launcher child run under :mod:`benchmarks.profile_child` (``DIR/NAME.prof``, written when it exits)."""
 
     prof_dir: Path = Path(".")
@@ -61,15 +61,15 @@ def profile(case: str = "W3", controller: str = "cpd_ff", duration: float = 120.
         out.mkdir(parents=True, exist_ok=True)
         _ProfiledChild.prof_dir = out
         opt = SimOptions(RunSpec(case, controller, duration=duration), out=str(out / "run"))
-        saved = launcher._Child
-        launcher._Child = _ProfiledChild  # type: ignore[misc]
+        saved = launcher.Child
+        launcher.Child = _ProfiledChild  # type: ignore[misc]
         prof = cProfile.Profile(time.process_time)
         try:
             prof.enable()
             r = launch(opt, progress=False)
             prof.disable()
         finally:
-            launcher._Child = saved  # type: ignore[misc]
+            launcher.Child = saved  # type: ignore[misc]
         prof.dump_stats(str(out / "launcher.prof"))
         ticks = int(round(duration * r["rate_hz"]))
         processes = {}

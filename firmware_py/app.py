@@ -98,11 +98,12 @@ def _write_log(path: str, rows: list[list[float]], stats: dict) -> None:
 
     import numpy as np
 
+    from bridge.logfile import save_csv_whole
+
     from .firmware import TICK_COLUMNS
-    header = ",".join(["t", *TICK_COLUMNS])
-    np.savetxt(path, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), delimiter=",", header=header,
-               comments="", fmt="%.17g")
+    # The statistics first: a reader that finds the tick log finds them too
     Path(path).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
+    save_csv_whole(path, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), ",".join(["t", *TICK_COLUMNS]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -174,7 +175,7 @@ def main(argv: list[str] | None = None) -> int:
             fw.rebuild_scheduler(t0_ns=start)
         fw.scheduler.run(stop=stop.is_set)
     finally:
-        stats = {**fw.scheduler.stats(), "faults": fw.fault_counts()}
+        stats = {**fw.scheduler.stats(), "faults": fw.fault_counts(), "hal": dict(vars(hal.counters))}
         if isinstance(hal.clock, LockstepPacedClock):
             stats["paced"] = {"speedup": hal.clock.speedup, "late_slots": hal.clock.late,
                               "max_lag_ms": hal.clock.max_lag_ns / 1e6}

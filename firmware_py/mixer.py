@@ -31,8 +31,7 @@ from typing import NamedTuple
 import numpy as np
 
 from bridge.models import kernels
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import motor_lag_factors
+from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors
 
 from .params import ParameterTable
 

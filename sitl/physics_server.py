@@ -155,7 +155,10 @@ class PhysicsServer:
                 reply = self._advance(rate, count, pwm)
             except _Stale:
                 return None
-            except Exception:   # a plant failure must not take the server down
+            except Exception as exc:   # a plant failure must not take the server down …
+                from .plant import PlantDiverged
+                if isinstance(exc, PlantDiverged):
+                    raise              # … unless the world itself has left physics: the run is over
                 c.errors += 1
                 return None
         c.replies += 1          # counted before sending, so a client that has the reply sees the count
@@ -306,7 +309,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from bridge.configfile import ConfigError, parse_key_values
     from bridge.schemas import load_true_vehicle
 
-    from .plant import Plant
+    from .plant import Plant, PlantDiverged
     from .sea import Sea
 
     args = _parser().parse_args(argv)
@@ -344,6 +347,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     stop = threading.Event()
     previous = {}
+    status = 0
 
     def _on_signal(signum, _frame):
         stop.set()
@@ -354,6 +358,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"wavekeep plant: ready on udp {args.host}:{server.port} (case {sea.name}, seed {sea.seed})",
               flush=True)
         server.serve_forever(stop)
+    except PlantDiverged as exc:
+        print(f"wavekeep plant: {exc}", file=sys.stderr, flush=True)
+        status = 3
     finally:
         server.close()
         if buoy is not None:
@@ -361,14 +368,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if session is not None:
             session.close()
         if args.log:
-            header = "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s"
-            np.savetxt(args.log, np.array(rows).reshape(-1, 11), delimiter=",", header=header, comments="",
-                       fmt="%.17g")
+            from bridge.logfile import save_csv_whole
+            save_csv_whole(args.log, np.array(rows).reshape(-1, 11), "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s")
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     counts = " ".join(f"{k}={v}" for k, v in server.counters.as_dict().items())
     print(f"wavekeep plant: stopped; {counts}", flush=True)
-    return 0
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover

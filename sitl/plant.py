@@ -18,16 +18,16 @@ all four stages.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from bridge.models.thrusters import T200Curve, ThrusterLayout, power_per_dof
+from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
     body_flow,
     hydrodynamic_load_terms,
-    motor_lag_factors,
     rk4_step,
     state_rates_at,
     strip_nodes,
@@ -37,7 +37,15 @@ from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_ve
 
 from .sea import Sea
 
-__all__ = ["Plant", "PlantState"]
+__all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "Plant", "PlantDiverged", "PlantState"]
+
+MAX_BODY_SPEED = 20.0   # m/s: |u|, |w| beyond this is no ROV in any sea the schema admits (they stay below 8)
+MAX_BODY_RATE = 20.0    # rad/s: |q| likewise (about 1150 °/s)
+
+
+class PlantDiverged(RuntimeError):
+    """The integration left the physical range (non-finite, or ν beyond :data:`MAX_BODY_SPEED` /
+    :data:`MAX_BODY_RATE`): the step is too large for the sea, or the sea outside the model."""
 
 
 @dataclass
@@ -145,6 +153,7 @@ class Plant:
             flow = body_flow(self.sea.components, x[:3], t + stage, self.strips, self.current_x)
             x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
+        _check_physical(x, s.t, t)
         f = (f_cmd + lag_end * df)[0]
         self.state = PlantState(t, x[:3], x[3:], f)
         self.tau = self.B @ f
@@ -169,3 +178,15 @@ class Plant:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""
         return power_per_dof(self.tau)
 
+
+
+def _check_physical(x: np.ndarray, t0: float, t1: float) -> None:
+    """:class:`PlantDiverged` if the state [η, ν] reached at ``t1`` (s) from ``t0`` is not a vehicle's."""
+    xs, z, th, u, w, q = x.tolist()
+    # NaN fails every comparison, so a non-finite velocity is caught with the large ones
+    if not (abs(u) <= MAX_BODY_SPEED and abs(w) <= MAX_BODY_SPEED and abs(q) <= MAX_BODY_RATE
+            and math.isfinite(xs + z + th)):
+        raise PlantDiverged(
+            f"the simulation diverged between t = {t0:.2f} s and {t1:.2f} s: u {x[3]:.3g} m/s, w {x[4]:.3g} m/s, "
+            f"q {x[5]:.3g} rad/s (limits {MAX_BODY_SPEED:g} m/s, {MAX_BODY_RATE:g} rad/s); the state before it "
+            "is kept")

@@ -33,6 +33,7 @@ from bridge.models.waves import (
 )
 
 from .buoy import NO_BUOY_ERRORS, BuoyErrors, WaveBuoy
+from .sea_limits import max_hs
 
 __all__ = [
     "SEA_SCHEMA",
@@ -135,6 +136,11 @@ class MeasuredSpectrum:
     def omega_peak(self) -> float:
         return float(self.omega[np.argmax(self.density)])
 
+    @property
+    def hs(self) -> float:
+        """Significant wave height 4 √m₀ (m) of the measured band."""
+        return float(4.0 * np.sqrt(np.trapezoid(self.density, self.omega)))
+
     def __call__(self, omega) -> np.ndarray:
         return np.interp(omega, self.omega, self.density, left=0.0, right=0.0)
 
@@ -227,6 +233,9 @@ def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | Non
         for key in ("hs", "tp"):
             if sp[key] is None:
                 raise ConfigError(path, f"spectrum.{key}", "required when spectrum.type is 'jonswap'")
+        if sp["hs"] > max_hs(sp["tp"]):
+            raise ConfigError(path, "spectrum.hs", f"got {sp['hs']!r}; allowed: (0, {max_hs(sp['tp']):.3g}] m at tp "
+                              f"{sp['tp']:g} s (steeper seas break, and the model cannot fly them: docs/models.md)")
     elif sp["type"] == "measured":
         if not sp["csv"]:
             raise ConfigError(path, "spectrum.csv", "required when spectrum.type is 'measured'")
@@ -237,9 +246,13 @@ def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | Non
             raise ConfigError(path, "spectrum.csv", f"no such file: {csv_path}")
         sp["csv"] = str(csv_path)
         try:   # a bad spectrum file is a config error (one line, exit 2), found before anything runs
-            MeasuredSpectrum.from_csv(csv_path)
+            measured = MeasuredSpectrum.from_csv(csv_path)
         except ValueError as exc:
             raise ConfigError(path, "spectrum.csv", str(exc)) from None
+        hs, tp = measured.hs, 2.0 * np.pi / measured.omega_peak
+        if hs > max_hs(tp):
+            raise ConfigError(path, "spectrum.csv", f"Hs {hs:.3g} m at Tp {tp:.3g} s; allowed: Hs up to "
+                              f"{max_hs(tp):.3g} m at that Tp (steeper seas break: docs/models.md)")
     lo, hi = cfg["omega_band"]
     if not lo < 1.0 < hi:
         raise ConfigError(path, "omega_band", f"got {cfg['omega_band']}; allowed: [lo, hi] with lo < 1 < hi")

@@ -13,8 +13,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bridge.models.thrusters import T200Curve, ThrusterLayout
-from bridge.models.vehicle import motor_lag_stages
+from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_stages
 from bridge.schemas import load_vehicle_config
 from firmware_py.companion.app import companion_overrides
 from firmware_py.companion.commander import Commander

@@ -64,9 +64,9 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
         _expect(q, "Wavekeep live")
         gcs.heartbeats(True)
         assert gcs.heartbeat(timeout=20.0) is not None
-        ack = gcs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 2, timeout=10.0)           # ALT_HOLD
+        ack = gcs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, timeout=10.0)           # GUIDED: holds station
         assert ack is not None and ack.result == 0
-        t_mode = _expect(q, "Mode ALT_HOLD")
+        t_mode = _expect(q, "Mode GUIDED")
         # This ground station has no joystick: as ArduSub's, the pilot-input failsafe trips once,
         # FS_PILOT_TIMEOUT (3 s) after boot; armed after that, the vehicle flies on without sticks
         _expect(q, "Lost manual control")
@@ -90,5 +90,6 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
     assert proc.returncode == 0, (tmp_path / "stderr").read_text()
     assert any("stopped after" in line for line in out) and any("RMSE" in line for line in out)
     text = log.read_text()
-    for word in ("Mode ALT_HOLD", "Arming motors", "GCS failsafe", "Disarming motors", "RMSE"):
+    assert any("the controller held station" in line for line in out)
+    for word in ("Mode GUIDED", "Arming motors", "GCS failsafe", "Disarming motors", "RMSE"):
         assert word in text, word

@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sitl.harness.plots import LABELS, REPRODUCE_FIGURES, plot_reproduce, plot_run
+from sitl.harness.plots import LABELS, REPRODUCE_FIGURES, plot_reproduce
 from sitl.harness.run import TIMESERIES_COLUMNS, RunResult, run_mission, write_run
+from sitl.harness.run_plot import plot_run
 from sitl.harness.spec import RunSpec
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

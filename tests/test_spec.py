@@ -11,7 +11,7 @@ from sitl.harness.spec import RunSpec
 
 
 @pytest.mark.parametrize("kw, words", [
-    ({"controller": "mpc"}, "controller must be one of cpd, cpd_ff"),
+    ({"controller": "nmpc"}, "controller must be one of cpd, cpd_ff"),
     ({"forecast": "buoy"}, "forecast must be one of oracle, dswp"),
     ({"controller": "cpd", "snr_db": 15.0}, "applies only to C-PD+FF with the oracle forecast"),
     ({"forecast": "dswp", "snr_db": 15.0}, "applies only to C-PD+FF with the oracle forecast"),

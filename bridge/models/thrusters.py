@@ -7,6 +7,7 @@
   FRD frame; the allocation matrix B (τ = B f) is derived from them as
   [f; r × f], never typed in.
 * :func:`power_per_dof` — the paper's T200 power polynomial applied to |τ|.
+* :func:`motor_lag_stages`, :func:`motor_lag_factors` — the motors' first-order lag under a held command.
 """
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ import numpy as np
 from . import kernels
 from .pchip import Pchip
 
-__all__ = ["KGF", "NEUTRAL_PWM_US", "WRENCH_AXES", "T200Curve", "ThrusterLayout", "power_per_dof"]
+__all__ = ["KGF", "NEUTRAL_PWM_US", "WRENCH_AXES", "T200Curve", "ThrusterLayout", "motor_lag_factors",
+           "motor_lag_stages", "power_per_dof"]
 
 KGF = 9.80665
 """Newtons per kilogram-force."""
@@ -205,3 +207,20 @@ def power_per_dof(tau) -> np.ndarray:
     """
     a = np.abs(np.asarray(tau, dtype=float))
     return ((0.0011 * a + 0.02078) * a + 0.297) * a
+
+
+def motor_lag_stages(f_cmd: np.ndarray, f0: np.ndarray, t_m: float, offsets) -> np.ndarray:
+    """Thrust of first-order motors at time offsets s after a command step: f_cmd + (f₀ − f_cmd) e^{−s/t_m}.
+
+    ``offsets`` (S,) in s; returns (S, n) thrusts (N).
+    """
+    return f_cmd + motor_lag_factors(t_m, offsets) * (f0 - f_cmd)
+
+
+def motor_lag_factors(t_m: float, offsets) -> np.ndarray:
+    """e^{−s/t_m} at the time offsets s (S,), as a column (S, 1): the share of a thrust step still to come.
+
+    For callers that step at fixed offsets and keep them: :func:`motor_lag_stages` is
+    ``f_cmd + motor_lag_factors(t_m, offsets) * (f0 − f_cmd)``.
+    """
+    return np.exp(-np.asarray(offsets, dtype=float) / t_m)[:, None]

@@ -43,8 +43,6 @@ __all__ = [
     "damping_matrix",
     "hydrodynamic_load",
     "hydrodynamic_load_at",
-    "motor_lag_factors",
-    "motor_lag_stages",
     "ned_to_body",
     "rates_jacobian",
     "restoring_forces",
@@ -456,23 +454,6 @@ def rk4_step(p: VehicleParams, x: np.ndarray, h: float, tau_stages, flow: BodyFl
     k3 = state_rates(p, x + (0.5 * h) * k2, tau_half, fh)
     k4 = state_rates(p, x + h * k3, tau1, f1)
     return x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-
-
-def motor_lag_stages(f_cmd: np.ndarray, f0: np.ndarray, t_m: float, offsets) -> np.ndarray:
-    """Thrust of first-order motors at time offsets s after a command step: f_cmd + (f₀ − f_cmd) e^{−s/t_m}.
-
-    ``offsets`` (S,) in s; returns (S, n) thrusts (N).
-    """
-    return f_cmd + motor_lag_factors(t_m, offsets) * (f0 - f_cmd)
-
-
-def motor_lag_factors(t_m: float, offsets) -> np.ndarray:
-    """e^{−s/t_m} at the time offsets s (S,), as a column (S, 1): the share of a thrust step still to come.
-
-    For callers that step at fixed offsets and keep them: :func:`motor_lag_stages` is
-    ``f_cmd + motor_lag_factors(t_m, offsets) * (f0 − f_cmd)``.
-    """
-    return np.exp(-np.asarray(offsets, dtype=float) / t_m)[:, None]
 
 
 def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:

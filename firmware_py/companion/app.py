@@ -242,11 +242,11 @@ def _write_stats(args, fw, commander, link, rows) -> None:
              "events": [text for _t, text in commander.events]}
     print(f"wavekeep companion: stopped after {stats['ticks']} ticks; {stats['telemetry_to_command_ms']}", flush=True)
     if args.log:
+        from bridge.logfile import save_csv_whole
+
         from ..firmware import TICK_COLUMNS
-        header = ",".join(["t", *TICK_COLUMNS])
-        np.savetxt(args.log, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), delimiter=",", header=header,
-                   comments="", fmt="%.17g")
         Path(args.log).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
+        save_csv_whole(args.log, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), ",".join(["t", *TICK_COLUMNS]))
 
 
 if __name__ == "__main__":

@@ -36,12 +36,21 @@ from .campaign_task import TaskOutcome, run_task, spec_columns
 from .progress import ProgressBar
 from .stats import format_summary_table, summarise_campaign
 
-__all__ = ["CampaignProgress", "CampaignReport", "dask_client", "execute_tasks", "run_campaign"]
+__all__ = ["CampaignInterrupted", "CampaignProgress", "CampaignReport", "dask_client", "execute_tasks",
+           "failure_text", "run_campaign"]
 
 WORKER_ENV = ONE_BLAS_THREAD
 """One BLAS thread per worker: the workers already fill the cores."""
 
 log = logging.getLogger("wavekeep.campaign")
+
+
+class CampaignInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a campaign: how many of its missions are in the journal (a rerun resumes from there)."""
+
+    def __init__(self, done: int, total: int):
+        super().__init__(f"{done} of {total} done; rerun the same command to resume")
+        self.done, self.total = done, total
 
 
 @dataclass
@@ -260,6 +269,8 @@ def run_campaign(spec: CampaignSpec, out: str | Path, scheduler: str | None = No
             if todo:
                 with dask_client(scheduler, workers, say=lambda m: print(m, file=stream, flush=True)) as client:
                     execute_tasks(client, todo, record)
+        except KeyboardInterrupt:
+            raise CampaignInterrupted(progress.done, len(tasks)) from None
         finally:
             progress.close()
         latest = journal.latest()
@@ -271,6 +282,19 @@ def run_campaign(spec: CampaignSpec, out: str | Path, scheduler: str | None = No
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return CampaignReport(rows, summary, len(todo), len(done), sum(r.get("status") != "ok" for r in rows), wall,
                           out, figures)
+
+
+def failure_text(report: CampaignReport) -> str | None:
+    """None if every mission flew; else the first distinct errors and, last, how many failed and where
+    each one's error is (the ``error`` column of missions.csv)."""
+    bad = [r for r in report.rows if r.get("status") != "ok"]
+    if not bad:
+        return None
+    errors = list(dict.fromkeys(str(r.get("error") or r.get("status")) for r in bad))
+    lines = [f"  {e[:300]}" for e in errors[:3]] + ([f"  ... and {len(errors) - 3} more"] if len(errors) > 3 else [])
+    return "\n".join(["errors:", *lines,
+                      f"{len(bad)} of {len(report.rows)} missions failed: each one's error is in the error column of "
+                      f"{report.out / 'missions.csv'} (rerun with --retry-failed to fly them again)"])
 
 
 def report_text(report: CampaignReport) -> str:

@@ -80,6 +80,13 @@ def plot_box(rows: Sequence[dict[str, Any]], spec: CampaignSpec, metric: str, ti
     return _save(fig, path)
 
 
+def ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The empirical CDF as steps (``where="post"``): from 0 at the smallest value (it is 0 below it, not 1/N)
+    up to 1 at the largest."""
+    x = np.sort(np.asarray(values, dtype=float))
+    return np.r_[x[:1], x], np.r_[0.0, np.arange(1, x.size + 1) / x.size]
+
+
 def plot_cdf_max_pitch(rows: Sequence[dict[str, Any]], spec: CampaignSpec, path: Path) -> Path:
     """Empirical CDF of the max |pitch error| (deg) over seeds, a line per (case, variant)."""
     fig, axes = _figure(1, 1, (8.0, 5.0))
@@ -87,13 +94,13 @@ def plot_cdf_max_pitch(rows: Sequence[dict[str, Any]], spec: CampaignSpec, path:
     colors = _colors(len(spec.variants))
     for i, case in enumerate(spec.cases):
         for j, v in enumerate(spec.variants):
-            x = np.sort(_values(rows, case, v.name, "max_abs_error_pitch") * _UNIT["pitch"][1])
+            x = _values(rows, case, v.name, "max_abs_error_pitch") * _UNIT["pitch"][1]
             if x.size:
-                ax.step(x, np.arange(1, x.size + 1) / x.size, where="post", color=colors[j], ls=_LS[i % len(_LS)],
-                        label=f"{case_name(case)} {v.name}")
+                ax.step(*ecdf(x), where="post", color=colors[j], ls=_LS[i % len(_LS)],
+                        label=f"{case_name(case)} {v.name} (n = {x.size})")
     ax.set_xlabel("max |pitch error| over the mission (deg)")
     ax.set_ylabel("share of seeds ≤ x")
-    ax.set_ylim(0, 1.02)
+    ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncols=max(1, len(spec.cases)))
     fig.suptitle(f"{spec.name}: CDF of the worst pitch error")
@@ -121,7 +128,9 @@ def plot_reduction_vs_sea(summary: dict[str, Any], spec: CampaignSpec, path: Pat
                 m = np.array([x["reduction_pct_mean"] for x in g])
                 lo = np.array([x["reduction_pct_ci95"][0] for x in g])
                 hi = np.array([x["reduction_pct_ci95"][1] for x in g])
-                ax.errorbar(xs, m, yerr=[m - lo, hi - m], color=colors[j], marker="o", capsize=3, label=var)
+                # markers only: two or three sea states are separate points, not a trend to draw a line through
+                ax.errorbar(xs, m, yerr=[m - lo, hi - m], color=colors[j], marker="o", ls="none", capsize=3,
+                            label=var)
             ax.axhline(0.0, color="k", lw=0.8, ls=":")
             ax.set_ylabel(f"{dof} RMSE reduction (%)")
             ax.grid(alpha=0.3)

@@ -19,9 +19,10 @@ expands to one :class:`CampaignTask` per mission, each carrying the
       - {name: ff_exact, controller: cpd_ff, forecast: oracle}
       - {name: ff_15db, controller: cpd_ff, forecast: oracle, snr_db: 15, overrides: {WK_FF_GAIN: 1.0}}
 
-Parameter overrides are checked for form here (a ``WK_*`` name, a finite number);
-whether a value is allowed is the firmware parameter table's call at run time,
-as it would be over MAVLink, so a bad value fails its missions, not the campaign.
+Parameter overrides are checked here against the firmware's parameter table, as
+``wavekeep run --set`` checks them: an unknown name or a value out of its range is a
+ConfigError naming the dotted key (``variants[2].overrides.WK_FF_GAN``), before any
+mission flies.
 """
 from __future__ import annotations
 
@@ -36,7 +37,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bridge.configfile import ConfigError, Field, read_yaml, resolve_config, validate
+from bridge.configfile import ConfigError, Field, read_yaml, validate
 
 from .spec import CONTROLLERS, FORECAST_SOURCES, MAX_SEED, RunSpec
 
@@ -179,12 +180,18 @@ def _overrides(raw: Any, file: str, key: str) -> dict[str, float]:
         return {}
     if not isinstance(raw, Mapping):
         raise ConfigError(file, key, f"got {raw!r:.60}; allowed: a mapping of WK_* parameter names to numbers")
+    from firmware_py.params import load_params
+
+    table = load_params()
     out: dict[str, float] = {}
     for name, value in raw.items():
         if not isinstance(name, str) or not _PARAM_NAME.match(name):
             raise ConfigError(file, f"{key}.{name}", "not a parameter name; allowed: WK_ followed by A-Z, 0-9, _")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ConfigError(file, f"{key}.{name}", f"got {value!r}; allowed: a finite number")
+        why = table.set(name, float(value))
+        if why:
+            raise ConfigError(file, f"{key}.{name}", why)
         out[name] = float(value)
     return out
 
@@ -239,17 +246,20 @@ def _check_sea_overrides(variants: Sequence[Variant], cases: Sequence[str], file
 
 
 def _case(name: str, base: Path, file: str, key: str) -> str:
-    """A sea state name, or a path made absolute (relative paths are taken from the campaign file's folder)."""
+    """A sea state name, or a path made absolute (relative paths are taken from the campaign file's folder);
+    the sea config is validated here, so a bad one stops the campaign before any mission flies."""
+    from sitl.sea import load_sea_config
+
     p = Path(name)
     if p.suffix in (".yaml", ".yml"):
         p = p if p.is_absolute() or p.exists() else base / p
         if not p.exists():
             raise ConfigError(file, key, f"no such sea file {name!r} (looked in {base})")
-        return str(p.resolve())
+        name = str(p.resolve())
     try:
-        resolve_config(name, "sea")
+        load_sea_config(name)
     except ConfigError as exc:
-        raise ConfigError(file, key, exc.message) from None
+        raise ConfigError(file, key, f"{exc.key}: {exc.message}" if exc.key else exc.message) from None
     return name
 
 

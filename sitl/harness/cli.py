@@ -1,7 +1,7 @@
 """wavekeep: station keeping for a BlueROV2 Heavy in waves — fly missions, reproduce the paper, fly it live.
 
     wavekeep run       --case W3 --controller cpd_ff --out runs/W3   # one station-keeping mission
-    wavekeep sim       --case W3 --out runs/sim-W3                   # the same across processes, over MAVLink
+    wavekeep sim       --case W3                                     # the same across processes, over MAVLink
     wavekeep reproduce --out runs/reproduce                          # the paper's nine runs and figures
     wavekeep compare   runs/W3-cpd runs/W3                           # runs side by side
     wavekeep campaign  configs/campaign/smoke.yaml --out runs/smoke  # a grid of missions on Dask, with CIs
@@ -11,6 +11,7 @@
     wavekeep openloop  --case W3 --out runs/openloop-W3              # the passive vehicle in the sea
     wavekeep view      runs/sim                                      # a run, .rrd or .tlog in the 3-D viewer
     wavekeep tlog      runs/sim/mission.tlog --out runs/tlog         # any tlog's figures and CSV
+    wavekeep companion --autopilot udpin:127.0.0.1:14770             # beside a real ArduSub (companion computer)
 
 Every --case takes a name from configs/sea/ or a path to a sea YAML file. Bad input (a bad
 option, config or output folder) prints one line `wavekeep CMD: ...` and exits with 2;

@@ -26,15 +26,17 @@ import numpy as np
 from bridge.forecast import derive_seeds, oracle_forecast
 
 from .launcher import (
+    Child,
     LaunchError,
     SimOptions,
-    _check_port,
-    _Child,
     _GroundStation,
     _merge_logs,
-    _wait_ready,
+    check_port,
+    interrupt_leaves_nothing,
     prepare_run,
     start_world,
+    stop_children,
+    wait_ready,
 )
 from .results import RunResult, mission_results
 from .run import write_run
@@ -62,20 +64,25 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
     """Run one mission with the companion flying the stand-in; returns the results document (also in DIR)."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch_companion(opt, method, companion_port, progress)
+
+
+def _launch_companion(opt: SimOptions, method: str, companion_port: int, progress) -> dict:
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
     for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):
-        _check_port(port, what)
+        check_port(port, what)
     if spec.ff:
-        _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
-    children: list[_Child] = []
+        check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
+    children: list[Child] = []
+    flown = False
     try:
         _start(opt, method, companion_port, sea.seed, duration, out, children)
         wall = _fly(opt, duration, f"sim --companion {method} {sea.name} {spec.label}", out, children, progress)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
+        flown = True
     finally:
-        statuses = {c.name: c.stop() for c in reversed(children)}
+        statuses = stop_children(children, opt.stop_timeout_s, interrupted=not flown)
     rate = mcfg["control_rate"]
     truth = np.loadtxt(out / "plant_truth.csv", delimiter=",", skiprows=1, ndmin=2)
     ticks = np.loadtxt(out / "companion_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
@@ -97,26 +104,26 @@ def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 
 
 
 def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duration: float, out: Path,
-           children: list[_Child]) -> None:
+           children: list[Child]) -> None:
     spec = opt.spec
     cli, configs, env, netcfg = start_world(opt, seed, duration, out, children)
     ardusub = [*cli, "firmware", "--hal", f"sitl:127.0.0.1:{opt.plant_port}", "--seed", str(seed), *configs,
                "--mavlink", f"udpout:127.0.0.1:{opt.gcs_port}", "--mavlink", f"udpout:127.0.0.1:{companion_port}",
                "--hold-until-armed", "--log", str(out / "firmware_ticks.csv"), "--speedup", str(opt.speedup or 0),
                *stand_in_args(method), *[a for s in opt.extra_params for a in ("--set", s)]]
-    children.append(_Child("ardusub", ardusub, out / "ardusub.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    children.append(Child("ardusub", ardusub, out / "ardusub.log", env))
+    wait_ready(children, opt.ready_timeout_s)
     companion = [*cli, "companion", "--autopilot", f"udpin:127.0.0.1:{companion_port}", "--lockstep",
                  "--method", method, *configs, "--log", str(out / "companion_ticks.csv")]
     if spec.ff:
         companion += ["--forecast", "zenoh", "--network", str(netcfg)]
     for name, value in spec.overrides.items():
         companion += ["--set", f"{name}={value!r}"]
-    children.append(_Child("companion", companion, out / "companion.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    children.append(Child("companion", companion, out / "companion.log", env))
+    wait_ready(children, opt.ready_timeout_s)
 
 
-def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[_Child], progress) -> float:
+def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[Child], progress) -> float:
     """The pilot: arm in MANUAL (the boot mode), let the companion fly to the end of the mission, disarm."""
     gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
     try:

@@ -26,10 +26,8 @@ import contextlib
 import json
 import os
 import select
-import signal
 import socket
 import struct
-import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -44,20 +42,14 @@ from firmware_py.modes import Mode
 from sitl.sea import Sea
 
 from .blas import ONE_BLAS_THREAD
+from .children import Child, LaunchError, check_port, interrupt_leaves_nothing, stop_children, wait_ready
 from .frame_clock import Frame, read_frames
-from .ports import port_is_free
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mission_results
 from .run_files import write_run
 from .spec import RunSpec
 
 __all__ = ["LaunchError", "SimOptions", "launch"]
-
-
-class LaunchError(RuntimeError):
-    def __init__(self, message: str, status: int = 1):
-        super().__init__(message)
-        self.status = status
 
 
 @dataclass
@@ -71,67 +63,10 @@ class SimOptions:
     gcs_port: int = 14550
     zenoh_port: int = 7447
     ready_timeout_s: float = 60.0
+    stop_timeout_s: float = 120.0  # wall s a child may take to write its log and exit once told to stop
     extra_params: list[str] = field(default_factory=list)
     plots: bool = True            # draw time_history.png (matplotlib: about a second)
     downlink_tap: Callable[[bytes], None] | None = None   # each MAVLink frame the GCS hears (the live view)
-
-
-def _check_port(port: int, what: str, kind: int = socket.SOCK_DGRAM) -> None:
-    """A clear error (exit status 2) if a loopback port the run needs is taken."""
-    if not port_is_free(port, kind):
-        proto = "TCP" if kind == socket.SOCK_STREAM else "UDP"
-        raise LaunchError(f"{proto} port {port} ({what}) is in use: pick another with the --*-port options", 2)
-
-
-class _Child:
-    """A child process whose stdout/stderr go to a log file; 'ready' is a line it prints."""
-
-    def __init__(self, name: str, argv: list[str], log: Path, env: dict):
-        self.name = name
-        self.log_path = log
-        self._log = open(log, "w")  # noqa: SIM115 — lives as long as the child; closed in stop()
-        self.proc = subprocess.Popen(argv, stdout=self._log, stderr=subprocess.STDOUT, env=env,
-                                     start_new_session=True)
-
-    def ready(self) -> bool:
-        try:
-            return "ready" in self.log_path.read_text()
-        except OSError:
-            return False
-
-    def alive(self) -> bool:
-        return self.proc.poll() is None
-
-    def stop(self, timeout: float = 10.0) -> int | None:
-        if self.alive():
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.proc.pid, signal.SIGKILL)
-                self.proc.wait(5)
-        self._log.close()
-        return self.proc.returncode
-
-    def tail(self, n: int = 8) -> str:
-        try:
-            return "\n".join(self.log_path.read_text().splitlines()[-n:])
-        except OSError:
-            return ""
-
-
-def _wait_ready(children: list[_Child], timeout: float) -> None:
-    end = time.monotonic() + timeout
-    pending = list(children)
-    while pending:
-        for c in list(pending):
-            if not c.alive():
-                raise LaunchError(f"{c.name} exited with status {c.proc.returncode} before it was ready:\n{c.tail()}")
-            if c.ready():
-                pending.remove(c)
-        if time.monotonic() > end:
-            raise LaunchError(f"{', '.join(c.name for c in pending)} not ready after {timeout:g} s")
-        time.sleep(0.05)
 
 
 def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
@@ -150,31 +85,37 @@ def prepare_run(opt: SimOptions) -> tuple[Sea, dict, float, np.ndarray, Path]:
 
 def launch(opt: SimOptions, progress=None) -> dict:
     """Run one mission across processes; returns the results document (also written to DIR)."""
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch(opt, progress)
+
+
+def _launch(opt: SimOptions, progress) -> dict:
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
-    _check_port(opt.plant_port, "plant")
-    _check_port(opt.gcs_port, "GCS")
+    check_port(opt.plant_port, "plant")
+    check_port(opt.gcs_port, "GCS")
     if spec.ff:
-        _check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
-    children: list[_Child] = []
+        check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
+    children: list[Child] = []
     gcs = None
+    flown = False
     try:
         # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
         # socket instead of being lost, so the flight need not wait a second for the next one.
         gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
+        flown = True
     finally:
         if gcs is not None:
             gcs.close()
-        statuses = {c.name: c.stop() for c in reversed(children)}
+        statuses = stop_children(children, opt.stop_timeout_s, interrupted=not flown)
     rate = mcfg["control_rate"]
     log = _merge_logs_of(opt, sea, duration, rate, out)
     fw_stats = {}
     with contextlib.suppress(OSError):
         fw_stats = json.loads((out / "firmware_ticks.json").read_text())
+    _check_lockstep(opt, fw_stats)
     results = mission_results(sea, spec, duration, rate, setpoint, log, fw_stats)
     results.update({
         "transport": "multi-process (JSON SITL, MAVLink, zenoh)",
@@ -186,7 +127,16 @@ def launch(opt: SimOptions, progress=None) -> dict:
     return results
 
 
-def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+def _check_lockstep(opt: SimOptions, fw_stats: dict) -> None:
+    """An unpaced run is the in-process run only if the plant answered every servo frame in time: a reply
+    later than ``SIM_JSON_TMO`` makes the firmware fly that tick blind. Said, never passed off as the run."""
+    late = (fw_stats.get("hal") or {}).get("timeouts", 0)
+    if not opt.speedup and late:
+        raise LaunchError(f"the plant's reply to {late} servo frame(s) came later than SIM_JSON_TMO, so the firmware "
+                          "flew those ticks without sensors: the run is not the lockstep one (raise SIM_JSON_TMO)")
+
+
+def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[Child],
                 wait_plant: bool = True) -> tuple[list[str], list[str], dict[str, str], Path]:
     """The forecast service (C-PD+FF only) and the plant, each waited for until ready (the plant only if
     ``wait_plant``: a caller may start the vehicle alongside it and wait for both).
@@ -213,21 +163,21 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children
             fc.append("--deep-water")
         if spec.snr_db is not None:
             fc += ["--forecast-snr-db", str(spec.snr_db)]
-        children.append(_Child("forecast", fc, out / "forecast.log", env))
-        _wait_ready(children, opt.ready_timeout_s)
+        children.append(Child("forecast", fc, out / "forecast.log", env))
+        wait_ready(children, opt.ready_timeout_s)
     plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
              "--log", str(out / "plant_truth.csv"), *sea_set]
     if spec.true_vehicle:
         plant += ["--true-vehicle", spec.true_vehicle]
     if spec.ff:
         plant += ["--buoy-network", str(netcfg)]
-    children.append(_Child("plant", plant, out / "plant.log", env))
+    children.append(Child("plant", plant, out / "plant.log", env))
     if wait_plant:
-        _wait_ready(children, opt.ready_timeout_s)
+        wait_ready(children, opt.ready_timeout_s)
     return cli, configs, env, netcfg
 
 
-def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[_Child],
+def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, children: list[Child],
                      water_depth: float) -> None:
     """The world (:func:`start_world`) and the firmware, waited for until ready (told the site's
     ``water_depth`` (m) for its DVL model).
@@ -251,15 +201,21 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     # It flies without a joystick and arms as soon as the vehicle boots (its clock held until then): the
     # pilot-input failsafe, whose clock starts at boot, would disarm it FS_PILOT_TIMEOUT later, as ArduSub's would.
     firmware += ["--set", "FS_PILOT_INPUT=0"]
+    if not opt.speedup:
+        # Unpaced, time is the plant's: a plant slow to answer (a busy machine) is not a silent one, so
+        # the firmware waits as long as the parameter allows (the user's --set still wins)
+        firmware += ["--set", f"SIM_JSON_TMO={LOCKSTEP_REPLY_WAIT_S!r}"]
     if not spec.ff:
         firmware += ["--no-forecast"]
     for name, value in spec.overrides.items():
         firmware += ["--set", f"{name}={value!r}"]
     for s in opt.extra_params:
         firmware += ["--set", s]
-    children.append(_Child("firmware", firmware, out / "firmware.log", env))
-    _wait_ready(children, opt.ready_timeout_s)
+    children.append(Child("firmware", firmware, out / "firmware.log", env))
+    wait_ready(children, opt.ready_timeout_s)
 
+
+LOCKSTEP_REPLY_WAIT_S = 5.0   # s: SIM_JSON_TMO for an unpaced run (the parameter's upper limit)
 
 _SYSTEM_TIME, _ATTITUDE = 2, 30            # MAVLink message ids
 _CLOCK_IDS = (_SYSTEM_TIME, _ATTITUDE)      # the messages whose time_boot_ms ends the mission
@@ -271,7 +227,7 @@ _BATCH_S = 0.005                            # s: the flight loop's wait for more
 class _GroundStation:
     """The launcher's side of the MAVLink link: heartbeats, commands with their acks, and the .tlog."""
 
-    def __init__(self, port: int, tlog: Path, children: list[_Child], tap: Callable[[bytes], None] | None = None):
+    def __init__(self, port: int, tlog: Path, children: list[Child], tap: Callable[[bytes], None] | None = None):
         os.environ["MAVLINK20"] = "1"
         from pymavlink import mavutil
         self.mavlink = mavutil.mavlink

@@ -41,12 +41,13 @@ def format_table(rows: dict[str, dict]) -> str:
 
     Each row is a ``results.json``-style mapping (``rmse``, ``max_abs_error``,
     ``mean_power_w``; pitch in rad, shown in degrees)."""
-    head = f"{'run':<16}{'RMSE x (m)':>11}{'z (m)':>9}{'θ (deg)':>9}{'max x (m)':>11}{'z (m)':>9}" \
+    w = max([16, *(len(label) + 1 for label in rows)])
+    head = f"{'run':<{w}}{'RMSE x (m)':>11}{'z (m)':>9}{'θ (deg)':>9}{'max x (m)':>11}{'z (m)':>9}" \
            f"{'θ (deg)':>9}{'P x (W)':>9}{'z (W)':>8}{'θ (W)':>8}"
     lines = [head, "-" * len(head)]
     for label, m in rows.items():
         r, mx, p = m["rmse"], m["max_abs_error"], m["mean_power_w"]
-        lines.append(f"{label:<16}{r['surge']:>11.3f}{r['heave']:>9.3f}{np.degrees(r['pitch']):>9.2f}"
+        lines.append(f"{label:<{w}}{r['surge']:>11.3f}{r['heave']:>9.3f}{np.degrees(r['pitch']):>9.2f}"
                      f"{mx['surge']:>11.3f}{mx['heave']:>9.3f}{np.degrees(mx['pitch']):>9.2f}"
                      f"{p['surge']:>9.2f}{p['heave']:>8.2f}{p['pitch']:>8.2f}")
     return "\n".join(lines)

@@ -1,4 +1,5 @@
-"""Figures of a station-keeping run and of the paper's nine-run reproduction (Walker et al. Figs. 4–7).
+"""Figures of runs side by side and of the paper's nine-run reproduction (Walker et al. Figs. 4–7); one run's
+``time_history.png`` is :mod:`.run_plot`'s.
 
 Everything here uses matplotlib's object-oriented API (:class:`~matplotlib.figure.Figure`
 behind a :class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`), so it needs
@@ -25,7 +26,7 @@ from .results import TIMESERIES_COLUMNS, RunResult
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_compare", "plot_reproduce", "plot_run", "power_figure"]
+__all__ = ["LABELS", "REPRODUCE_FIGURES", "plot_compare", "plot_reproduce", "power_figure"]
 
 DPI = 120
 LABELS: tuple[str, ...] = tuple(v.label for v in PAPER_VARIANTS)   # C-PD, exact, 15 dB
@@ -96,8 +97,10 @@ def _save(fig: Figure, path: str | Path) -> Path:
 
 
 def _select(runs: Sequence[RunResult], case: str, label: str) -> RunResult:
-    """The one run with results["case"] == case and results["label"] == label, else ValueError."""
-    found = [r for r in runs if r.results.get("case") == case and r.results.get("label") == label]
+    """The one run of ``case`` whose label is ``label`` (before the ", ..." that names changed parameters:
+    ``reproduce --set`` flies all nine so), else ValueError."""
+    found = [r for r in runs if r.results.get("case") == case
+             and str(r.results.get("label", "")).split(", ")[0] == label]
     if len(found) != 1:
         have = sorted(f"{r.results.get('case')} / {r.results.get('label')}" for r in runs)
         what = "no run" if not found else f"{len(found)} runs"
@@ -109,92 +112,7 @@ def _zero_line(ax: Axes, label: str | None = None) -> None:
     ax.axhline(0.0, color="k", lw=0.8, ls=":", label=label)
 
 
-# ---------------------------------------------------------------------------- one run
-
-def _shade(ax: Axes, t: np.ndarray, mask: np.ndarray, color: str, label: str | None = None) -> None:
-    """Shade the spans of ``t`` where ``mask`` holds, full height."""
-    if np.any(mask):
-        ax.fill_between(t, 0.0, 1.0, where=mask, transform=ax.get_xaxis_transform(), color=color, alpha=0.15,
-                        lw=0, label=label, step="mid")
-
-
-def _largest_event(result: RunResult, half_width: float = 15.0) -> tuple[str, float, tuple[float, float]]:
-    """The DoF and time of the largest error relative to its RMSE, and a window (s) around it."""
-    t = _col(result, "t")
-    best = ("surge", 0.0, -1.0)
-    for dof in DOF:
-        e = np.abs(_error(result, dof))
-        rms = float(np.sqrt(np.mean(e**2))) or 1.0
-        k = int(np.argmax(e))
-        if e[k] / rms > best[2]:
-            best = (dof, float(t[k]), float(e[k] / rms))
-    dof, tk, _ = best
-    return dof, tk, (max(float(t[0]), tk - half_width), min(float(t[-1]), tk + half_width))
-
-
-def plot_run(result: RunResult, path: str | Path) -> Path:
-    """Time history of one run as a PNG: wave elevation at the vehicle (m; plus the forecast's),
-    surge, heave (depth) and pitch error (m, m, deg; truth thick, EKF estimate thin dashed,
-    setpoint dotted at zero, the saturation preview's shifted target where it acted), the commanded
-    wrench per thruster group (N, N m) with thruster saturation shaded red, and a zoom on the
-    largest error event. Shaded blue: FF active.
-    """
-    r = result.results
-    t = _col(result, "t")
-    ff_on = _col(result, "ff_active") > 0.5
-    sat = _col(result, "saturated") > 0.5
-    fig = Figure(figsize=(10.0, 13.0), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(6, 1, gridspec_kw={"height_ratios": [1, 1, 1, 1, 1, 1.2]})
-    for ax in axes[1:5]:
-        ax.sharex(axes[0])
-    ax = axes[0]
-    ax.plot(t, _col(result, "wave_eta"), color="tab:blue", lw=1.0, label="wave η at vehicle")
-    fc = _col(result, "forecast_eta")
-    if np.isfinite(fc).any():
-        ax.plot(t, fc, color="tab:orange", lw=0.8, ls="--", label="forecast η")
-    ax.set_ylabel("elevation η (m)")
-    for ax, dof in zip(axes[1:4], DOF, strict=True):
-        ax.plot(t, _error(result, dof, estimate=True), color="tab:green", lw=0.7, ls="--", label="EKF estimate")
-        ax.plot(t, _error(result, dof), color="k", lw=1.2, label="truth")
-        _zero_line(ax, "setpoint")
-        if (prv := _preview_target(result, dof)) is not None:
-            ax.plot(t, prv, color="tab:orange", lw=0.9, label="preview target")
-        ax.set_ylabel(_DOF_AXES[dof][4])
-    ax = axes[4]
-    ax.plot(t, _col(result, "tau_X"), color="tab:red", lw=0.8, label="horizontal group τ_X (N)")
-    ax.plot(t, _col(result, "tau_Z"), color="tab:green", lw=0.8, label="vertical group τ_Z (N)")
-    ax.plot(t, _col(result, "tau_M"), color="tab:purple", lw=0.8, label="vertical group τ_M (N m)")
-    ax.set_ylabel("commanded thrust")
-    _shade(ax, t, sat, "tab:red", f"saturated ({100 * np.mean(sat):.1f} % of ticks)")
-    for ax in axes[:4]:
-        _shade(ax, t, ff_on, "tab:blue", "FF active")
-    for ax in axes[:5]:
-        ax.legend(loc="upper right", fontsize=7, ncols=4)
-        ax.grid(alpha=0.3)
-    axes[4].set_xlabel("time t (s)")
-    dof, tk, win = _largest_event(result)
-    m = _window(t, win)
-    ax = axes[5]
-    _shade(ax, t[m], sat[m], "tab:red", "saturated")
-    _shade(ax, t[m], ff_on[m], "tab:blue", "FF active")
-    ax.plot(t[m], _error(result, dof, estimate=True)[m], color="tab:green", lw=0.9, ls="--", label="EKF estimate")
-    ax.plot(t[m], _error(result, dof)[m], color="k", lw=1.4, label="truth")
-    if (prv := _preview_target(result, dof)) is not None:
-        ax.plot(t[m], prv[m], color="tab:orange", lw=1.0, label="preview target (WK_PRV_*)")
-    _zero_line(ax)
-    ax.axvline(tk, color="tab:red", lw=0.8, ls=":")
-    ax.set_title(f"zoom: largest {dof} error, t = {tk:.1f} s", fontsize=9)
-    ax.set_ylabel(_DOF_AXES[dof][4])
-    ax.set_xlabel("time t (s)")
-    ax.legend(loc="upper right", fontsize=7, ncols=4)
-    ax.grid(alpha=0.3)
-    rm = r.get("rmse", {})
-    fig.suptitle(f"{r.get('case', '?')} {r.get('label', '?')}, seed {r.get('seed', '?')} — RMSE "
-                 f"surge {rm.get('surge', np.nan):.3f} m, heave {rm.get('heave', np.nan):.3f} m, "
-                 f"pitch {np.degrees(rm.get('pitch', np.nan)):.2f}°")
-    return _save(fig, path)
-
+# ---------------------------------------------------------------------------- runs side by side
 
 def plot_compare(runs: Sequence[RunResult], names: Sequence[str], path: str | Path) -> Path:
     """Runs overlaid: surge, heave and pitch error against time (m, m, deg; top) and their
@@ -206,7 +124,8 @@ def plot_compare(runs: Sequence[RunResult], names: Sequence[str], path: str | Pa
         for j, dof in enumerate(DOF):
             e = _error(run, dof)
             rms = float(np.sqrt(np.mean(e**2)))
-            axes[0, j].plot(t, e, color=color, lw=0.7, alpha=0.8, label=f"{name} (RMSE {rms:.3g})")
+            unit = "deg" if dof == "pitch" else "m"
+            axes[0, j].plot(t, e, color=color, lw=0.7, alpha=0.8, label=f"{name} (RMSE {rms:.3g} {unit})")
             axes[1, j].hist(e, bins=60, density=True, histtype="step", color=color, lw=1.2, label=name)
     for j, dof in enumerate(DOF):
         unit = _DOF_AXES[dof][4]
@@ -214,7 +133,7 @@ def plot_compare(runs: Sequence[RunResult], names: Sequence[str], path: str | Pa
         axes[0, j].set_xlabel("time t (s)")
         axes[0, j].legend(fontsize=7, loc="upper right")
         axes[1, j].set_xlabel(unit)
-        axes[1, j].set_ylabel("probability density (1/unit)")
+        axes[1, j].set_ylabel(f"probability density (1/{'deg' if dof == 'pitch' else 'm'})")
         axes[1, j].legend(fontsize=7, loc="upper right")
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
@@ -319,7 +238,7 @@ def plot_errors(runs: Sequence[RunResult], path: str | Path) -> Path:
             _grouped_bars(axes[row, col], _metric(runs, key, dof), f"{name} ({unit})",
                           "%.2f" if dof == "pitch" else "%.3f")
             axes[row, col].set_title(f"{dof} {name}")
-    axes[0, 0].legend(fontsize=8, loc="upper left")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside lower center", ncols=len(LABELS), fontsize=8)
     fig.suptitle("Station-keeping error per sea state and controller")
     return _save(fig, path)
 
@@ -339,8 +258,8 @@ def power_figure(runs: Sequence[RunResult]) -> Figure:
     for ax, (name, vals) in zip(axes[0], [*per.items(), ("total", total)], strict=False):
         _grouped_bars(ax, vals, "mean power (W)", "%.2f" if name == "pitch" else "%.0f")
         ax.set_title(f"{name}")
-    axes[0, 0].legend(fontsize=8, loc="upper left")
-    fig.suptitle("Mean power per DoF and in total")
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside lower center", ncols=len(LABELS), fontsize=8)
+    fig.suptitle("Mean power per DoF and in total")   # (the legend below the bars: on an axis it hid one)
     return fig
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bridge.models.vehicle import motor_lag_factors
+from bridge.models.thrusters import motor_lag_factors
 from bridge.models.waves import elevation_grid
 
 from .view_layout import DOFS, SEA_PERIOD_S, SEA_STEP, SEA_WIDTH, THRUST_SCALE, TIMELINE, SceneGeometry

@@ -38,8 +38,7 @@ from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
 __all__ = ["PAPER", "PAPER_WORLD", "WORLDS", "format_reproduce", "format_reproduce_table", "paper_campaign",
-           "reproduce", "reproduce_seeds", "summarise",
-           "summary_statements"]
+           "paper_tasks", "reproduce", "reproduce_seeds", "summarise", "summary_statements"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
 
@@ -153,8 +152,8 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _tasks(seed: int | None, duration: float | None, plots: bool, overrides: dict[str, float] | None = None,
-           world: str = "paper") -> list[CampaignTask]:
+def paper_tasks(seed: int | None, duration: float | None, plots: bool, overrides: dict[str, float] | None = None,
+                world: str = "paper") -> list[CampaignTask]:
     """The nine missions in one of :data:`WORLDS`; with ``plots`` each brings its time series back (Figs. 4
     and 5). The user's ``overrides`` go on top of the world's."""
     fields = WORLDS[world][1]
@@ -175,7 +174,7 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
 
     ``out`` is created only when the runs are done: a failed or interrupted reproduction leaves nothing."""
     out = Path(out)
-    by_world = {w: _tasks(seed, duration, plots, overrides, w) for w in WORLDS}
+    by_world = {w: paper_tasks(seed, duration, plots, overrides, w) for w in WORLDS}
     jobs = [t for ts in by_world.values() for t in ts]
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()

@@ -20,7 +20,8 @@ from sitl.sea import Sea
 from .metrics import station_keeping_metrics
 from .spec import RunSpec
 
-__all__ = ["TIMESERIES_COLUMNS", "RunResult", "controller_summary", "ekf_consistency", "elevation_along",
+__all__ = ["TIMESERIES_COLUMNS", "RunResult", "controller_summary", "ekf_consistency", "ekf_lapses", "elevation_along",
+           "lapse_lines",
            "mission_results", "write_results"]
 
 TIMESERIES_COLUMNS = (
@@ -50,7 +51,7 @@ def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, ch
 
 STATES = ("x", "z", "theta", "u", "w", "q")
 CONSISTENCY_SKIP_S = 5.0
-"""Consistency statistics leave out the first seconds (initial transient), as issue #19's figures do."""
+"""Consistency statistics leave out the first seconds (initial transient), as docs/estimator.md's figures do."""
 
 
 def ekf_consistency(log: np.ndarray, skip_s: float = CONSISTENCY_SKIP_S) -> dict[str, Any]:
@@ -73,6 +74,54 @@ def ekf_consistency(log: np.ndarray, skip_s: float = CONSISTENCY_SKIP_S) -> dict
             "nis_per_dof": float(np.sum(log[k, c["nis"]]) / dof) if dof > 0 else None}
 
 
+LAPSE_SIGMAS = 6.0
+"""An estimate this many of its own σ from the truth is no longer the estimator's (NEES 36 against about 1)."""
+LAPSE_FLOOR = {"x": 0.25, "z": 0.25, "theta": float(np.radians(5.0))}
+"""... and at least this far (m, m, rad), so a tiny σ does not make noise a lapse."""
+LAPSE_MIN_S = 0.25
+"""Shortest lapse reported (s); lapses closer than this are one."""
+
+
+def ekf_lapses(log: np.ndarray, rate_hz: float) -> list[dict[str, Any]]:
+    """Spans where the EKF's position or pitch estimate left the truth by more than :data:`LAPSE_SIGMAS` of
+    its own σ (and :data:`LAPSE_FLOOR`) for at least :data:`LAPSE_MIN_S`: per span the state, its start
+    ``t_s`` and ``duration_s`` (s), the largest error (m or rad) and the σ the estimator claimed there."""
+    c = COLUMN
+    out: list[dict[str, Any]] = []
+    gap = max(1, int(round(LAPSE_MIN_S * rate_hz)))
+    for state in ("x", "z", "theta"):
+        err = np.abs(log[:, c[f"{state}_hat"]] - log[:, c[state]])
+        sig = log[:, c[f"sigma_{state}"]]
+        with np.errstate(invalid="ignore"):
+            off = np.flatnonzero((err > LAPSE_SIGMAS * sig) & (err > LAPSE_FLOOR[state]))
+        if off.size == 0:
+            continue
+        breaks = np.flatnonzero(np.diff(off) > gap)
+        for a, b in zip(np.r_[0, breaks + 1], np.r_[breaks, off.size - 1], strict=True):
+            i, j = off[a], off[b]
+            if (j - i + 1) / rate_hz < LAPSE_MIN_S:
+                continue
+            k = i + int(np.argmax(err[i:j + 1]))
+            out.append({"state": state, "t_s": float(log[i, 0]), "duration_s": float((j - i + 1) / rate_hz),
+                        "max_error": float(err[k]), "sigma": float(sig[k])})
+    return sorted(out, key=lambda d: d["t_s"])
+
+
+def lapse_lines(results: dict[str, Any], most: int = 3) -> list[str]:
+    """The EKF lapses of a results document as printed lines (m; pitch in degrees): a count, then the
+    ``most`` largest."""
+    laps = (results.get("ekf") or {}).get("lapses") or []
+    if not laps:
+        return []
+    lines = [f"EKF lapses: {len(laps)} span(s) where the estimate left the truth by more than "
+             f"{LAPSE_SIGMAS:g} of its own σ (results.json ekf.lapses); the largest:"]
+    for lap in sorted(laps, key=lambda d: -d["max_error"] / LAPSE_FLOOR[d["state"]])[:most]:
+        unit, scale = ("°", float(np.degrees(1.0))) if lap["state"] == "theta" else (" m", 1.0)
+        lines.append(f"  {lap['state']} estimate off by up to {lap['max_error'] * scale:.3g}{unit} (its σ "
+                     f"{lap['sigma'] * scale:.2g}{unit}) for {lap['duration_s']:.2f} s from t = {lap['t_s']:.2f} s")
+    return lines
+
+
 def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpoint: np.ndarray,
                     log: np.ndarray, control_stats: dict[str, Any]) -> dict[str, Any]:
     """The ``results.json`` fields every mission reports, from its time series (in-process or launched).
@@ -85,6 +134,7 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
     estimate_error = log[:, c["x_hat"]:c["q_hat"] + 1] - log[:, 1:7]
     return {
         "case": sea.name,
+        "controller": spec.controller,
         "forecast": spec.forecast_source,
         "forecast_snr_db": spec.snr_db if spec.ff else None,
         "seed": sea.seed,
@@ -93,15 +143,18 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
         **metrics,
         "tick_overruns": control_stats.get("overruns", 0),
         "label": spec.label,
+        "ff_law": spec.ff_law,
+        "estimator": spec.estimator,
+        "changed_parameters": spec.changed_params,
         "hs_target_m": sea.hs_target,
         "hs_realised_m": float(4.0 * np.std(elevation_along(sea.components, np.full(len(log), setpoint[0]),
                                                             log[:, 0]))),
         "ekf": {"rms_error": dict(zip(("x", "z", "theta", "u", "w", "q"),
                                       np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True)),
-                **ekf_consistency(log)},
+                **ekf_consistency(log), "lapses": ekf_lapses(log, rate)},
         "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
         "saturated_fraction": float(np.mean(log[:, c["saturated"]] > 0.5)),   # ticks with an axis at ±τ_max
-        "controller": controller_summary(spec.controller, log),
+        "solver": controller_summary(spec.controller, log),
         "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
         "faults": control_stats.get("faults"),
     }

@@ -24,7 +24,7 @@ from firmware_py.hal import InProcessSITLHAL
 from firmware_py.modes import Mode
 from firmware_py.params import ParameterTable, load_params
 from sitl.buoy import BuoyTape
-from sitl.plant import Plant
+from sitl.plant import Plant, PlantDiverged
 from sitl.sea import Sea
 
 from .progress import ProgressBar
@@ -32,7 +32,7 @@ from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along, mis
 from .run_files import write_run
 from .spec import RunSpec
 
-__all__ = ["DSWPFeeder", "MissionSetup", "build_mission", "run_mission", "write_run"]
+__all__ = ["DSWPFeeder", "MissionDiverged", "MissionSetup", "build_mission", "run_mission", "write_run"]
 
 
 @dataclass
@@ -164,13 +164,18 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     log = np.zeros((n, len(TIMESERIES_COLUMNS)))
     events: list[tuple[float, int, str]] = []   # the firmware's STATUSTEXTs (mode, arming, failsafes), for the view
     wall0 = time.perf_counter()
+    diverged: PlantDiverged | None = None
     with ProgressBar(n, f"{sea.name} {spec.label}", enabled=None if progress else False) as bar:
         for k in range(n):
             truth = plant.state
             if m.feeder is not None:
                 m.feeder.advance(truth.t)
             fw.scheduler.run_tick()
-            hal.step_world()
+            try:
+                hal.step_world()
+            except PlantDiverged as exc:
+                diverged, log, duration = exc, log[:k], k / rate
+                break
             r = fw.last
             if r is None:
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
@@ -182,6 +187,8 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
                     queue.clear()
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
+    if diverged is not None and len(log) < 2:
+        raise MissionDiverged(str(diverged), None)
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
     log[:, COLUMN["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
     if forecast is not None:
@@ -194,5 +201,18 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     results = mission_results(sea, spec, duration, rate, setpoint, log, stats)
     results["ekf"].update(rejected=dict(fw.ekf.rejected), accepted=dict(fw.ekf.accepted))
     results.update(wall_time_s=wall, speed_x_realtime=duration / wall if wall > 0 else None)
-    return RunResult(results, log, events, m.feeder.history if m.feeder is not None else None)
+    result = RunResult(results, log, events, m.feeder.history if m.feeder is not None else None)
+    if diverged is not None:
+        results.update(status="diverged", error=str(diverged))
+        raise MissionDiverged(str(diverged), result)
+    return result
+
+
+class MissionDiverged(RuntimeError):
+    """The world left the physical range mid-mission (:class:`~sitl.plant.PlantDiverged`); ``result`` holds the
+    time series up to the last physical state (None if it diverged at once), for diagnosis."""
+
+    def __init__(self, message: str, result: RunResult | None):
+        super().__init__(message)
+        self.result = result
 

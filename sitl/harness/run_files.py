@@ -16,6 +16,6 @@ def write_run(result: RunResult, out: str | Path, plots: bool = True) -> Path:
     """DIR/results.json, DIR/timeseries.csv and (optionally) DIR/time_history.png."""
     out = write_results(result, out)
     if plots:
-        from .plots import plot_run  # matplotlib: imported only when a figure is drawn
+        from .run_plot import plot_run  # matplotlib: imported only when a figure is drawn
         plot_run(result, out / "time_history.png")
     return out

@@ -10,6 +10,7 @@ on a wall clock) is the caller's business, never the spec's.
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
@@ -136,17 +137,65 @@ class RunSpec:
         """Where the forecast comes from (``oracle``/``dswp``), or None for feedback alone."""
         return self.forecast if self.ff else None
 
+    def _param(self, name: str) -> float:
+        """The value the firmware flies with: the override, else what the controller choice implies, else
+        ``configs/firmware/params.yaml``'s."""
+        return self.overrides.get(name, self.implied_params().get(name, _default_params()[name]))
+
+    @property
+    def ff_law(self) -> str | None:
+        """The feed-forward law flown (``WK_FF_MODE``): ``paper``, ``robust`` or ``wave-velocity``; None without FF."""
+        return FF_LAWS.get(int(self._param("WK_FF_MODE")), "?") if self.ff else None
+
+    @property
+    def estimator(self) -> str:
+        """The estimator flown (``WK_EKF_MODE``): ``paper`` (6 states) or ``aided``."""
+        return ESTIMATORS.get(int(self._param("WK_EKF_MODE")), "?")
+
+    @property
+    def changed_params(self) -> dict[str, float]:
+        """The overrides that differ from ``params.yaml`` and from what the controller choice implies."""
+        defaults, implied = _default_params(), self.implied_params()
+        return {n: v for n, v in sorted(self.overrides.items())
+                if v != implied.get(n, defaults.get(n))}
+
     @property
     def label(self) -> str:
         """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``,
-        ``MPC exact``…"""
+        ``MPC exact``, then whatever differs from the defaults — the law (``paper law``), the estimator
+        (``paper EKF``), and each other changed parameter (``WK_FF_GAIN=0.8``) — so two runs that flew
+        differently never share a label."""
         dob = "+DOB" if self.dob else ""
-        if not self.ff:
-            return "C-PD" + dob
         law = "MPC" if self.mpc else f"C-PD+FF{dob}"
-        if self.forecast == "dswp":
-            return f"{law} DSWP"
-        return f"{law} exact" if self.snr_db is None else f"{law} {self.snr_db:g} dB"
+        if not self.ff:
+            base = "C-PD" + dob
+        elif self.forecast == "dswp":
+            base = f"{law} DSWP"
+        else:
+            base = f"{law} exact" if self.snr_db is None else f"{law} {self.snr_db:g} dB"
+        changed = self.changed_params
+        extra = []
+        if "WK_FF_MODE" in changed and self.ff and not self.mpc:
+            extra.append(f"{self.ff_law} law")
+        if "WK_EKF_MODE" in changed:
+            extra.append(f"{self.estimator} EKF")
+        extra += [f"{n}={v:g}" for n, v in changed.items() if n not in ("WK_FF_MODE", "WK_EKF_MODE")]
+        return ", ".join([base, *extra])
+
+
+FF_LAWS = {0: "paper", 1: "robust", 2: "wave-velocity"}
+"""``WK_FF_MODE`` → the law's name in labels and ``results.json`` (docs/feedforward.md)."""
+
+ESTIMATORS = {0: "paper", 1: "aided"}
+"""``WK_EKF_MODE`` → the estimator's name (docs/estimator.md)."""
+
+
+@functools.lru_cache(maxsize=1)
+def _default_params() -> dict[str, float]:
+    """``configs/firmware/params.yaml``'s values (read once)."""
+    from firmware_py.params import load_params
+
+    return load_params().as_dict()
 
 
 PAPER_CASES = ("W1", "W2", "W3")

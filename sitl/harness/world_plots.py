@@ -52,23 +52,37 @@ def plot_sea(sea: Any, t: np.ndarray, eta: np.ndarray, path: str | Path) -> Path
 
 def plot_openloop(log: np.ndarray, columns: Sequence[str], setpoint: np.ndarray, results: dict,
                   path: str | Path) -> Path:
-    """The unpowered vehicle: wave elevation (m), surge and heave drift from the setpoint (m),
-    pitch (deg) and the wave loads (N, N m), against time (s)."""
+    """The unpowered vehicle: wave elevation (m), surge drift from the setpoint (m), depth (m, positive down,
+    the surface marked), pitch (deg), and the wave loads: forces (N) and moment (N m), against time (s)."""
     c = {name: i for i, name in enumerate(columns)}
     t = log[:, c["t"]]
-    fig, axes = _figure(5, 1, (10.0, 10.0), sharex=True)
-    rows = [("wave_eta", 1.0, 0.0, "wave η at vehicle (m)"), ("x", 1.0, setpoint[0], "surge drift x (m)"),
-            ("z", 1.0, setpoint[1], "heave drift z (m, +down)"), ("theta", float(np.degrees(1.0)), setpoint[2],
-                                                                   "pitch θ (deg)")]
-    for ax, (name, scale, sp, label) in zip(axes[:4, 0], rows, strict=True):
-        ax.plot(t, (log[:, c[name]] - sp) * scale, color="k" if name != "wave_eta" else "tab:blue", lw=0.9)
-        ax.set_ylabel(label)
+    fig, axes = _figure(6, 1, (10.0, 12.0), sharex=True)
+    ax = axes[0, 0]
+    ax.plot(t, log[:, c["wave_eta"]], color="tab:blue", lw=0.9)
+    ax.set_ylabel("wave η at\nthe vehicle (m)")
+    ax = axes[1, 0]
+    ax.plot(t, log[:, c["x"]] - setpoint[0], color="k", lw=0.9)
+    ax.set_ylabel("surge drift\nx − x_sp (m)")
+    ax = axes[2, 0]
+    ax.plot(t, log[:, c["z"]], color="k", lw=0.9, label="depth")
+    ax.axhline(setpoint[1], color="k", lw=0.8, ls=":", label=f"released at {setpoint[1]:g} m")
+    ax.axhline(0.0, color="tab:blue", lw=1.4, label="surface (depth 0)")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(max(hi, setpoint[1] + 0.5), min(lo, -0.5))    # inverted: deeper is lower, the surface in view
+    ax.set_ylabel("depth z\n(m, +down)")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.005, 1.0), frameon=False)
+    ax = axes[3, 0]
+    ax.plot(t, np.degrees(log[:, c["theta"]] - setpoint[2]), color="k", lw=0.9)
+    ax.set_ylabel("pitch θ (deg)")
     ax = axes[4, 0]
-    for name, color in (("tauE_X", "tab:red"), ("tauE_Z", "tab:green")):
-        ax.plot(t, log[:, c[name]], color=color, lw=0.8, label=f"{name} (N)")
-    ax.plot(t, log[:, c["tauE_M"]], color="tab:purple", lw=0.8, label="tauE_M (N m)")
-    ax.set_ylabel("wave load")
-    ax.legend(fontsize=8, ncols=3, loc="upper right")
+    ax.plot(t, log[:, c["tauE_X"]], color="tab:red", lw=0.8, label="surge force τ_E,X")
+    ax.plot(t, log[:, c["tauE_Z"]], color="tab:green", lw=0.8, label="heave force τ_E,Z")
+    ax.set_ylabel("wave force (N)")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.005, 1.0), frameon=False)
+    ax = axes[5, 0]
+    ax.plot(t, log[:, c["tauE_M"]], color="tab:purple", lw=0.8, label="pitch moment τ_E,M")
+    ax.set_ylabel("wave moment\n(N m)")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.005, 1.0), frameon=False)
     ax.set_xlabel("time t (s)")
     for a in axes[:, 0]:
         a.grid(alpha=0.3)

@@ -63,6 +63,7 @@ def cmd_live(args: argparse.Namespace) -> int:
             key = load_signing_key(args.signing_key)
         except (OSError, ValueError) as exc:
             raise o.UsageError(f"--signing-key {args.signing_key}: {exc}") from None
+    o.check_configs(args, spec)     # a bad config is refused before the log is created
     log_path = Path(args.log or f"runs/live-{time.strftime('%Y%m%d-%H%M%S', time.gmtime())}.log")
     try:
         log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -86,13 +87,14 @@ def cmd_live(args: argparse.Namespace) -> int:
 
     server = None
     try:
-        sim = LiveSim(spec, mavlink=endpoints, speedup=args.speedup, signing_key=key, on_event=event)
+        sim = LiveSim(spec, mavlink=endpoints, speedup=args.speedup, signing_key=key, on_event=event,
+                      duration=args.duration)
         if args.view or not args.no_record:
             server = view.live_recording(args, sim, spec, log_path, recorder, say)
         say(f"Wavekeep live: {args.case}, {spec.label}, MAVLink on {', '.join(endpoints)}, speed-up "
             f"{args.speedup:g}. Disarmed in MANUAL; arm and pick a mode from your ground station. Ctrl-C stops. "
             f"Log: {log_path}")
-        _fly(sim, spec.label, args, time.monotonic(), say)   # (the clock starts once the recording is set up)
+        interrupted = _fly(sim, spec.label, say)
     finally:
         if recorder:
             recorder[0].close()
@@ -102,23 +104,35 @@ def cmd_live(args: argparse.Namespace) -> int:
         if server is not None:
             server.stop()
         log.close()
-    return 0
+    return 130 if interrupted else 0
 
 
-def _fly(sim, label: str, args: argparse.Namespace, t0: float, say) -> None:
-    """Run ``sim`` until Ctrl-C or --duration; then report the ticks and the results table through ``say``."""
+def _fly(sim, label: str, say) -> bool:
+    """Run ``sim`` until Ctrl-C or its duration (simulated time); then report the ticks, the time per mode and,
+    over the time the controller held station, the results table through ``say``. True if Ctrl-C stopped it."""
+    from ..live import MIN_HELD_S
     from ..metrics import format_table
 
+    interrupted = False
     with sim:
         try:
-            while args.duration is None or time.monotonic() - t0 < args.duration / args.speedup:
-                time.sleep(0.2)
+            while not sim.done.wait(0.2):
+                pass
         except KeyboardInterrupt:
+            interrupted = True
             print("stopping (Ctrl-C)", file=sys.stderr)
     stats = sim.firmware.scheduler.stats()
-    say(f"stopped after {stats['ticks']} ticks ({stats['overruns']} overruns)")
-    summary = sim.summary()
-    say("(too short to report errors)" if summary is None else format_table({label: summary}))
+    say(f"stopped after {stats['ticks']} ticks ({stats['overruns']} overruns)" + (" on Ctrl-C" if interrupted else ""))
+    s = sim.summary(label)
+    say(f"flown {s['flown_s']:.1f} s: " + ", ".join(f"{m} {t:.1f} s" for m, t in s["time_s"].items()))
+    if s["metrics"] is None:
+        say(f"held station (armed in GUIDED or POSHOLD) for {s['held_s']:.1f} s, under {MIN_HELD_S:g} s: "
+            "no errors or power to report")
+    else:
+        say(f"over the {s['held_s']:.1f} s the controller held station (errors against its target, power from "
+            "the thrusters' actual load):")
+        say(format_table({s["label"]: s["metrics"]}))
+    return interrupted
 
 
 def cmd_live_thrust(args: argparse.Namespace) -> int:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 from pathlib import Path
@@ -56,11 +57,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     """One station-keeping mission in-process: prints the results, writes the run folder."""
     from ..metrics import format_table
     from ..provenance import write_run_record
-    from ..run import run_mission, write_run
+    from ..results import lapse_lines
+    from ..run import MissionDiverged, run_mission, write_run
 
     spec = o.run_spec(args)
     out = o.check_out(args.out, force=args.force)
-    result = run_mission(spec, progress=True)
+    try:
+        result = run_mission(spec, progress=True)
+    except MissionDiverged as exc:
+        if exc.result is not None:   # kept for diagnosis: the time series up to the last physical state
+            write_run(exc.result, out, plots=not args.no_plots)
+            write_run_record(out, args.argv, spec, seed=exc.result.results["seed"])
+        print(f"wavekeep run: {exc}" + (f"; wrote {out}" if exc.result is not None else ""), file=sys.stderr)
+        return 1
     r = result.results
     write_run(result, out, plots=not args.no_plots)
     write_run_record(out, args.argv, spec, seed=r["seed"])
@@ -68,6 +77,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), "
           f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
     print(format_table({r["label"]: r}))
+    for line in lapse_lines(r):
+        print(line)
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))
     view.record(args, out, spec, r["seed"], result)
     return 0
@@ -96,7 +107,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print(f"wavekeep reproduce: interrupted; stopped the cluster, wrote nothing to {out}", file=sys.stderr)
         return 130
-    write_run_record(out, args.argv, seed=args.seed, parameter_overrides=overrides, duration_s=args.duration)
+    from ..reproduce import WORLDS, paper_tasks
+    specs = [t.spec for w in WORLDS for t in paper_tasks(args.seed, args.duration, False, overrides, w)]
+    write_run_record(out, args.argv, specs, seed=args.seed, duration_s=args.duration)
     print(format_reproduce(doc))
     n_runs = len(doc["runs"]) + len(doc["corrected"]["runs"])
     print(f"{n_runs} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
@@ -115,11 +128,35 @@ def _reproduce_seeds(args: argparse.Namespace) -> int:
         raise o.UsageError("--params/--set are not supported with --seeds (a campaign); use a campaign YAML")
     o.check_out(args.out, kind="campaign")   # a campaign folder resumes: its files are kept
     _sigint_raises()
-    report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
-                             plots=not args.no_plots, scheduler=args.scheduler)
+    with _campaign_interrupt("reproduce"):
+        report = reproduce_seeds(args.out, args.seeds, duration=args.duration, workers=args.workers,
+                                 plots=not args.no_plots, scheduler=args.scheduler)
     print(report_text(report))
     print(format_paper_comparison(report.summary))
-    return 0
+    return _campaign_status(report)
+
+
+@contextlib.contextmanager
+def _campaign_interrupt(command: str):
+    """Ctrl-C during a campaign: say how far it got and how to resume, exit 130 (via SystemExit)."""
+    from ..campaign import CampaignInterrupted
+
+    try:
+        yield
+    except CampaignInterrupted as exc:
+        print(f"wavekeep {command}: interrupted; {exc}", file=sys.stderr)
+        raise SystemExit(130) from None
+
+
+def _campaign_status(report) -> int:
+    """0 if every mission flew; else 1, the errors and, as the last line, how many failed and where."""
+    from ..campaign import failure_text
+
+    text = failure_text(report)
+    if text is None:
+        return 0
+    print(text, file=sys.stderr)
+    return 1
 
 
 def cmd_campaign(args: argparse.Namespace) -> int:
@@ -130,7 +167,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     spec = load_campaign_spec(args.spec)
     o.check_out(args.out, kind="campaign")
     _sigint_raises()
-    report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
-                          retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
+    with _campaign_interrupt("campaign"):
+        report = run_campaign(spec, args.out, scheduler=args.scheduler, workers=args.workers,
+                              retry_failed=args.retry_failed, plots=not args.no_plots, log_interval=args.log_interval)
     print(report_text(report))
-    return 0
+    return _campaign_status(report)

@@ -21,7 +21,8 @@ MAX_SEED = 2**63 - 1
 MAX_DURATION_S = 86400.0
 """Longest mission or record a command accepts (one day of simulated time)."""
 
-RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json", "*.rrd")
+RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json",
+             "firmware_ticks.*", "companion_ticks.*", "plant_truth.csv", "network.yaml", "*.rrd")
 """What a run leaves in its folder: with ``--force`` these are removed before the new run writes."""
 
 
@@ -29,11 +30,22 @@ class UsageError(Exception):
     """A bad option or combination of options: reported in one line, exit status 2."""
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows an option's default once: appended as ``(default: X)`` only where the help text does not already
+    say it, and never for options without one (None, False)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "default" in text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return text
+        return super()._get_help_string(action) or text
+
+
 class Parser(argparse.ArgumentParser):
     """An argument parser whose errors are one line (``wavekeep CMD: message``) and whose help shows defaults."""
 
     def __init__(self, *a: Any, **kw: Any):
-        kw.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kw.setdefault("formatter_class", HelpFormatter)
         super().__init__(*a, **kw)
 
     def error(self, message: str):
@@ -239,6 +251,17 @@ def run_spec(args: argparse.Namespace) -> Any:
                 msg = option + msg[len(key):]
                 break
         raise UsageError(msg) from None
+
+
+def check_configs(args: argparse.Namespace, spec: Any) -> None:
+    """Load the sea (with the spec's overrides), mission and vehicle configs a run will fly, so a bad one is
+    refused (a ConfigError: one line, exit 2) before the command prints or writes anything."""
+    from bridge.schemas import load_mission_config, load_vehicle_config
+    from sitl.sea import load_sea_config
+
+    load_sea_config(spec.case, spec.sea)
+    load_mission_config(spec.mission)
+    load_vehicle_config(spec.vehicle)
 
 
 def _key_values(items: list[str] | None, option: str) -> dict[str, Any]:

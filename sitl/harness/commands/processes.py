@@ -56,12 +56,16 @@ def add_parsers(sub) -> None:
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     view.add_record_options(p, live=True)
-    o.add_out(p, required=False, default="runs/sim")
+    o.add_out(p, required=False, default=None,
+              what="run folder; default: runs/sim-CASE-CONTROLLER, with the forecast error, seed and duration "
+              "when given (e.g. runs/sim-W1-cpd_ff-60s)")
     p.set_defaults(func=cmd_sim)
 
     sub.add_parser("plant", help="the plant as an ArduPilot JSON SITL physics server (see wavekeep plant -h)",
                    add_help=False)
     sub.add_parser("firmware", help="the firmware as its own process (see wavekeep firmware -h)", add_help=False)
+    sub.add_parser("companion", help="the control task on a companion computer beside a real ArduSub, over "
+                   "MAVLink (see wavekeep companion -h, docs/companion.md)", add_help=False)
 
 
 SIM_PORTS = {"--plant-port": (9002, socket.SOCK_DGRAM, "plant"), "--gcs-port": (14550, socket.SOCK_DGRAM, "GCS"),
@@ -95,6 +99,26 @@ def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
     return ports
 
 
+def default_out(args: argparse.Namespace) -> str:
+    """``sim``'s folder when no --out is given, named after the options that change the run: ``runs/sim-W1-cpd_ff``,
+    then ``-15dB`` / ``-dswp``, ``-seed7``, ``-60s``, ``-companion-rc`` when given (so two different runs never share
+    a folder)."""
+    from pathlib import Path
+
+    parts = ["sim", Path(args.case).stem if args.case.endswith((".yaml", ".yml")) else args.case, args.controller]
+    if args.forecast_snr_db is not None:
+        parts.append(f"{args.forecast_snr_db:g}dB")
+    if args.forecast != "oracle" and args.controller.startswith("cpd_ff"):
+        parts.append(args.forecast)
+    if args.seed is not None:
+        parts.append(f"seed{args.seed}")
+    if args.duration is not None:
+        parts.append(f"{args.duration:g}s")
+    if args.companion:
+        parts.append(f"companion-{args.companion}")
+    return str(Path("runs") / "-".join(parts))
+
+
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
     from ..launcher import LaunchError, SimOptions, launch
@@ -109,6 +133,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
+    if args.out is None:
+        args.out = default_out(args)
+    o.check_configs(args, spec)
     view.require_view(args)
     out = o.check_out(args.out, force=args.force)
     ports = _sim_ports(args)      # after every check: a refused command says one line, whatever holds the ports
@@ -140,11 +167,14 @@ def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
     """What ``sim`` prints and writes after its mission: run.json, the table, the recording."""
     from ..metrics import format_table
     from ..provenance import write_run_record
+    from ..results import lapse_lines
 
     write_run_record(out, args.argv, spec, seed=r["seed"])
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
     print(format_table({r["label"]: r}))
+    for line in lapse_lines(r):
+        print(line)
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
           + ", mission.tlog, *.log, run.json")
     view.record(args, out, spec, r["seed"], grpc_url=live.server.grpc_url if live else None)

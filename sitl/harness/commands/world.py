@@ -117,7 +117,7 @@ def cmd_openloop(args: argparse.Namespace) -> int:
 
     from ..metrics import format_table, station_keeping_metrics
     from ..progress import ProgressBar
-    from ..provenance import write_run_record
+    from ..provenance import configs_record, write_run_record
     from ..world_plots import plot_openloop
 
     o.check_duration(args.duration, args.mission)
@@ -158,7 +158,7 @@ def cmd_openloop(args: argparse.Namespace) -> int:
                fmt="%.6f")
     plot_openloop(log, OPENLOOP_COLUMNS, setpoint, results, out / "openloop.png")
     write_run_record(out, args.argv, seed=sea.seed, case=sea.name, mission=args.mission, vehicle=args.vehicle,
-                     duration_s=duration)
+                     duration_s=duration, configs=configs_record(args.case, args.mission, args.vehicle))
     print(f"Open loop (thrusters neutral) in {sea.name}, seed {sea.seed}, {duration:g} s at {rate:g} Hz: "
           f"{wall:.2f} s wall ({results['speed_x_realtime']:.0f}x real time)")
     print(format_table({f"{sea.name} passive": metrics}))
