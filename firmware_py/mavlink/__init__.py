@@ -1,4 +1,4 @@
-"""Wavekeep's MAVLink: the vehicle's ground-station link, ArduSub-compatible.
+"""Wavekeep's MAVLink: the vehicle's ground-station link, as ArduSub 4.7 speaks it.
 
 Mirrors ArduPilot's split between the GCS_MAVLink library and the vehicle's
 GCS_Mavlink.cpp:
@@ -6,8 +6,12 @@ GCS_Mavlink.cpp:
 * :mod:`.transports` — the endpoints (udpout, udpin, tcp, tcpin);
 * :mod:`.link` — :class:`MavlinkLink`: queues, the I/O thread, signing, parsing, outbox;
 * :mod:`.telemetry` — the streamed messages, built from the firmware's telemetry snapshot;
-* :mod:`.commands` — inbound messages and COMMAND_LONG/INT handlers;
-* :mod:`.param_protocol` — the parameter protocol.
+* :mod:`.streams` — which message is due when;
+* :mod:`.identity` — AUTOPILOT_VERSION, the capabilities, the banner;
+* :mod:`.port` — the narrow interface the link hands its handlers (no handler imports the link);
+* :mod:`.commands`, :mod:`.vehicle_commands` — inbound messages and COMMAND_LONG/INT handlers;
+* :mod:`.param_protocol` — the parameter protocol;
+* :mod:`.pilot`, :mod:`.accessories` — the joystick and its failsafe; the camera mount, lights, outputs 9–16.
 
 What goes on the wire, and where it differs from ArduSub, is in ``docs/mavlink.md``.
 """
