@@ -290,3 +290,17 @@ def test_parameter_set_accepts_exactly_the_allowed_values(name, value):
         assert why is None and table[name] == float(value)
     else:
         assert why and table[name] == old
+
+
+def test_a_bad_ardusub_table_names_the_file_and_the_line(tmp_path):
+    """configs/firmware/ardusub_params.csv is read and checked: a bad row is a ConfigError naming its line."""
+    from bridge.configfile import ConfigError
+    from firmware_py.ardusub_params import reference_table
+
+    bad = tmp_path / "ardusub_params.csv"
+    bad.write_text("# a comment\nname,value,type\nANGLE_MAX,4500,INT16\nFS_PRESS_MAX,lots,INT32\n")
+    with pytest.raises(ConfigError, match="line 4"):
+        reference_table(str(bad))
+    bad.write_text("name,value,type\nANGLE_MAX,4500,INT64\n")
+    with pytest.raises(ConfigError, match="INT64"):
+        reference_table(str(bad))
