@@ -32,7 +32,7 @@ from .feedforward import FeedForwardOutput, WaveFeedForward, skill_weighted_flow
 from .forecast import ForecastHandoff
 from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
-from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
+from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput, mode_refusal
 from .params import ParameterTable
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
@@ -126,8 +126,10 @@ class Firmware:
         self.armed = False
         self.pilot = PilotInput()
         self.events: deque[tuple[int, str]] = deque(maxlen=64)
-        self.gcs_failsafe = GCSFailsafe(params, self.say)
+        self.notes: deque[tuple[int, str]] = deque(maxlen=64)   # for logs only: what ArduSub does not say
+        self.gcs_failsafe = GCSFailsafe(params, self.say, self.note)
         self.ekf_failsafe = EKFFailsafe(params, self.say)
+        self.failsafe_pilot = False      # the GCS link's pilot-input failsafe has tripped (the heartbeat says so)
         self.output_faults = 0           # non-finite commands replaced by neutral
         self.sensors_healthy = False
         self.depth_offset = 0.0          # m, subtracted from the pressure depth (baro calibration at the surface)
@@ -193,19 +195,18 @@ class Firmware:
         """Queue a STATUSTEXT."""
         self.events.append((int(severity), text[:50]))
 
+    def note(self, severity: int, text: str) -> None:
+        """Queue an event for the run's log only (a mode change, a failsafe's trip: ArduSub says neither)."""
+        self.notes.append((int(severity), text))
+
     def request_mode(self, mode: int) -> MAV_RESULT:
-        """Switch flight mode; unknown or unsupported modes are refused and the mode is kept."""
-        try:
-            m = Mode(int(mode))
-        except ValueError:
+        """Switch flight mode as ArduSub does: a refused mode is said in its words and the mode kept."""
+        why = mode_refusal(mode, self.mode, self.ekf.converged(), self.ekf.initialised and self.sensors_healthy)
+        if why:
+            self.say(MAV_SEVERITY.WARNING, why)
             return MAV_RESULT.FAILED
-        if m not in FLIGHT_MODES:
-            return MAV_RESULT.FAILED
-        if FLIGHT_MODES[m].holds[0] and not self.ekf.converged():
-            self.say(MAV_SEVERITY.WARNING, f"{m.name} needs a position estimate")
-            return MAV_RESULT.FAILED
-        if m != self.mode:
-            self._enter(m)
+        if int(mode) != self.mode:
+            self._enter(Mode(int(mode)))
         return MAV_RESULT.ACCEPTED
 
     def _enter(self, m: Mode) -> None:
@@ -213,38 +214,46 @@ class Firmware:
         self.setpoint = FLIGHT_MODES[m].enter(self.mode, pose, self.setpoint)
         self.mode = m
         self.controller.reset()
-        self.say(MAV_SEVERITY.INFO, f"Mode {m.name}")
+        self.note(MAV_SEVERITY.INFO, f"Mode {m.name}")
+        if FLIGHT_MODES[m].entry_text:          # ArduSub announces no mode change, but a few modes speak
+            self.say(MAV_SEVERITY.INFO, FLIGHT_MODES[m].entry_text)
 
     def prearm_failure(self, ekf_converged: bool | None = None) -> str | None:
-        """Why the vehicle may not arm, or None; ARMING_CHECK picks the checks (bit 0 all, 2 baro, 16 INS/AHRS).
+        """Why the vehicle may not arm, or None: the checks ARMING_CHECK selects, in ArduPilot's bits (1 all,
+        2 baro: the depth sensor, 16 INS: IMU and estimate, 256 battery: its monitor has read; 64 RC and
+        128 board voltage always pass here: the pilot is on MAVLink, the board is simulated).
 
         ``ekf_converged``: the estimator's :meth:`~firmware_py.estimator.PlanarEKF.converged` when the caller
         has just asked it (the telemetry snapshot, every link tick); None asks it here."""
-        checks = int(self.params.get("ARMING_CHECK", 1))
-        if checks & (1 | 2 | 16) and not self.sensors_healthy:
-            return "sensors unhealthy"
-        converged = self.ekf.converged() if ekf_converged is None else ekf_converged
-        if checks & (1 | 16) and not converged:
-            return "EKF not converged"
+        checks = int(self.params.get("ARMING_CHECK", 448))
+        every = checks & 1
+        if (every or checks & 256) and self.last is None and not self.ekf.initialised:
+            return "Battery 1 unhealthy"        # the simulated monitor reads with the first tick
+        if (every or checks & 2) and not self.sensors_healthy:
+            return "Barometer not healthy"
+        if every or checks & 16:
+            converged = self.ekf.converged() if ekf_converged is None else ekf_converged
+            if not (converged and self.sensors_healthy):
+                return "AHRS not healthy"
         return None
 
     def request_arm(self, arm: bool, force: bool = False) -> tuple[MAV_RESULT, str]:
-        """Arm (after the pre-arm checks, unless forced) or disarm."""
+        """Arm (after the pre-arm checks, unless forced) or disarm, said in ArduSub's words."""
         if not arm:
             if self.armed:
                 self.armed = False
                 self.aux.test = None
-                self.say(MAV_SEVERITY.INFO, "Disarmed")
+                self.say(MAV_SEVERITY.INFO, "Disarming motors")
             return MAV_RESULT.ACCEPTED, ""
         if self.armed:
             return MAV_RESULT.ACCEPTED, ""
         why = None if force else self.prearm_failure()
         if why:
-            self.say(MAV_SEVERITY.CRITICAL, f"PreArm: {why}")
+            self.say(MAV_SEVERITY.CRITICAL, f"Arm: {why}")
             return MAV_RESULT.FAILED, why
         self.armed = True
         self.controller.reset()
-        self.say(MAV_SEVERITY.INFO, "Armed" + (" (forced)" if force else ""))
+        self.say(MAV_SEVERITY.INFO, "Arming motors")
         return MAV_RESULT.ACCEPTED, ""
 
     def set_target(self, x: float | None, depth: float | None, pitch: float | None = None) -> MAV_RESULT:
@@ -274,7 +283,7 @@ class Firmware:
         return self.aux.start_test(motor, pwm, timeout_s, self._now, self.armed)
 
     def gcs_heartbeat(self) -> None:
-        """The GCS (sysid SYSID_MYGCS) was heard."""
+        """The GCS (sysid MAV_GCS_SYSID) was heard."""
         self.gcs_failsafe.heard(self._now)
 
     def telemetry_snapshot(self) -> TelemetrySnapshot:
@@ -288,7 +297,7 @@ class Firmware:
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
             return MAV_STATE.BOOT
-        if self.failsafe_gcs or self.failsafe_ekf:
+        if self.failsafe_gcs or self.failsafe_ekf or self.failsafe_pilot:      # any failsafe, as ArduSub
             return MAV_STATE.CRITICAL
         return MAV_STATE.ACTIVE if self.armed else MAV_STATE.STANDBY
 
@@ -391,7 +400,7 @@ class Firmware:
         if self._pending is not None:
             self.ekf.predict(self._pending.tau_stages, self._pending.flow)
         self.ekf.update(frame)
-        self._failsafe_action(self.ekf_failsafe.check(self.ekf, self.armed))
+        self._failsafe_action(self.ekf_failsafe.check(self.ekf, self.armed, t))
         self._failsafe_action(self.gcs_failsafe.check(t, self.armed))
 
     def _feedforward(self, flow: BodyFlow | None, frame: SensorFrame) -> tuple[bool, BodyFlow | None,

@@ -8,138 +8,30 @@ gives every default. Values are read and set at runtime through
 value kept, as ArduPilot's parameter protocol expects.
 
 Simulated-sensor parameters carry ArduPilot's ``SIM_`` prefix: they describe
-the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``).
+the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``). ArduSub's
+parameters are :mod:`firmware_py.ardusub_params`'s: the ones that act here in
+:data:`PARAM_DEFS` (defaults in ``params.yaml``), and the rest of ArduSub 4.7's
+table appended read-only with ArduSub's defaults (:func:`load_params`).
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
-__all__ = ["PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params", "parse_assignment"]
+from .ardusub_params import ARDUSUB_DEFS, RCIN_PASSTHROUGH, reference_defs
+from .param_def import INT_TYPE_RANGES, ParamDef
 
-
-INT_TYPE_RANGES: dict[str, tuple[int, int]] = {"INT8": (-128, 127), "INT16": (-32768, 32767),
-                                               "INT32": (-2**31, 2**31 - 1)}
-"""The storage types of integer parameters (AP_Int8/16/32) and what each holds."""
-PARAM_TYPES = ("REAL32", *INT_TYPE_RANGES)
-
-
-@dataclass(frozen=True)
-class ParamDef:
-    """Definition of one parameter: name (≤ 16 chars), inclusive range, units, meaning, storage type.
-
-    ``ptype`` is the MAVLink parameter type (ArduPilot's AP_Float / AP_Int8 / AP_Int16 /
-    AP_Int32): ``"REAL32"``, ``"INT8"``, ``"INT16"`` or ``"INT32"``. ``integer=True``
-    without a ``ptype`` means INT32; an integer ``ptype`` makes the parameter integer.
-    ``readonly``: a ground station may read it but not set it (ArduPilot's read-only
-    parameters; the configuration file still sets it).
-    """
-
-    name: str
-    lo: float
-    hi: float
-    units: str
-    doc: str
-    integer: bool = False
-    ptype: str = ""
-    readonly: bool = False
-    allowed: frozenset[float] | None = None     # when set, only these values (e.g. a thruster output's functions)
-
-    def __post_init__(self) -> None:
-        if not (1 <= len(self.name) <= 16) or self.name.upper() != self.name:
-            raise ValueError(f"parameter name {self.name!r} must be 1-16 upper-case characters")
-        if not self.lo <= self.hi:
-            raise ValueError(f"parameter {self.name}: empty range [{self.lo}, {self.hi}]")
-        ptype = self.ptype or ("INT32" if self.integer else "REAL32")
-        if ptype not in PARAM_TYPES:
-            raise ValueError(f"parameter {self.name}: type {ptype!r} is not one of {', '.join(PARAM_TYPES)}")
-        object.__setattr__(self, "ptype", ptype)
-        object.__setattr__(self, "integer", ptype != "REAL32")
-        if self.integer:
-            lo, hi = INT_TYPE_RANGES[ptype]
-            if not lo <= self.lo <= self.hi <= hi:
-                raise ValueError(f"parameter {self.name}: range [{self.lo}, {self.hi}] does not fit {ptype}")
-
-    def check(self, value: float) -> str | None:
-        """Why ``value`` is not allowed, or None."""
-        if isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, (int, float)) or not math.isfinite(value):
-            return f"got {value!r}; allowed: a finite number in [{self.lo:g}, {self.hi:g}]"
-        if self.integer and not float(value).is_integer():
-            return f"got {value!r}; allowed: an integer in [{self.lo:g}, {self.hi:g}]"
-        if not self.lo <= value <= self.hi:
-            return f"got {value!r}; allowed: [{self.lo:g}, {self.hi:g}] {self.units}".rstrip()
-        if self.allowed is not None and float(value) not in self.allowed:
-            return f"got {value!r}; allowed: {', '.join(f'{v:g}' for v in sorted(self.allowed))}"
-        return None
+__all__ = ["INT_TYPE_RANGES", "PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params",
+           "parse_assignment"]
 
 
 def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: str) -> list[ParamDef]:
     """One parameter per DoF: _X surge, _Z heave, _P pitch."""
     return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
             for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units, strict=False)]
-
-
-def _ardusub_defs() -> list[ParamDef]:
-    """The ArduSub parameters QGroundControl's Sub pages read (docs/mavlink.md says which ones act)."""
-    i8, i16, i32 = "INT8", "INT16", "INT32"
-    defs = [
-        ParamDef("FRAME_CONFIG", 0, 7, "", "frame: 2 = Vectored-6DOF (BlueROV2 Heavy)", ptype=i8, readonly=True),
-        ParamDef("ARMING_CHECK", 0, 2**20, "", "pre-arm checks: 0 none, bit 0 all, 2 baro, 16 INS/AHRS", ptype=i32),
-        ParamDef("FS_PILOT_INPUT", 0, 2, "", "pilot input failsafe: 0 off, 1 warn, 2 disarm", ptype=i8),
-        ParamDef("FS_PILOT_TIMEOUT", 0.1, 3.0, "s", "pilot input failsafe timeout"),
-        ParamDef("FS_LEAK_ENABLE", 0, 2, "", "leak failsafe: 0 off, 1 warn, 2 surface (no leak sensor here)",
-                 ptype=i8, readonly=True),
-        ParamDef("JS_GAIN_DEFAULT", 0.1, 1.0, "", "pilot gain at boot"),
-        ParamDef("JS_GAIN_MAX", 0.2, 1.0, "", "largest pilot gain"),
-        ParamDef("JS_GAIN_MIN", 0.1, 0.8, "", "smallest pilot gain"),
-        ParamDef("JS_GAIN_STEPS", 1, 10, "", "pilot gain steps from min to max", ptype=i8),
-        ParamDef("JS_THR_GAIN", 0.5, 4.0, "", "extra gain on the throttle stick"),
-        ParamDef("JS_LIGHTS_STEP", 0, 400, "us", "lights brighter/dimmer button step", ptype=i16),
-        ParamDef("JS_CAM_TILT_STEP", 0, 400, "us", "camera tilt button step", ptype=i16),
-        ParamDef("BATT_MONITOR", 0, 30, "", "battery monitor: 4 analog voltage and current (Power Sense Module)",
-                 ptype=i8, readonly=True),
-        ParamDef("BATT_CAPACITY", 0, 2**20, "mAh", "battery capacity: remaining % is counted against it", ptype=i32),
-        ParamDef("BATT_VOLT_MULT", 0.0, 100.0, "", "PSM voltage divider", readonly=True),
-        ParamDef("BATT_AMP_PERVLT", 0.0, 200.0, "A/V", "PSM current sense", readonly=True),
-        ParamDef("BATT_ARM_VOLT", 0.0, 100.0, "V", "minimum voltage to arm (0: no check)", readonly=True),
-        ParamDef("BATT_LOW_VOLT", 0.0, 100.0, "V", "low battery voltage (failsafe not simulated)", readonly=True),
-        ParamDef("BATT_CRT_VOLT", 0.0, 100.0, "V", "critical battery voltage", readonly=True),
-        ParamDef("BATT_FS_LOW_ACT", 0, 5, "", "low battery action", ptype=i8, readonly=True),
-        ParamDef("BATT_FS_CRT_ACT", 0, 5, "", "critical battery action", ptype=i8, readonly=True),
-        ParamDef("MOT_PWM_MIN", 0, 2000, "us", "thruster PWM at full reverse", ptype=i16, readonly=True),
-        ParamDef("MOT_PWM_MAX", 0, 2000, "us", "thruster PWM at full forward", ptype=i16, readonly=True),
-        ParamDef("MOT_PWM_TYPE", 0, 8, "", "output type: 0 normal PWM", ptype=i8, readonly=True),
-    ]
-    for name in ("PITCH", "ROLL", "THROTTLE", "YAW", "FORWARD", "LATERAL"):
-        defs.append(ParamDef(f"RCMAP_{name}", 1, 16, "", f"RC input channel of {name.lower()}", ptype=i8,
-                             readonly=True))
-    for b in range(16):
-        defs.append(ParamDef(f"BTN{b}_FUNCTION", 0, 127, "", f"joystick button {b} function", ptype=i8))
-        defs.append(ParamDef(f"BTN{b}_SFUNCTION", 0, 127, "", f"joystick button {b} function with shift", ptype=i8))
-    for ch in range(1, 9):     # a thruster output: its motor, or RC input 9-16 passed through (companion servo mode)
-        defs.append(ParamDef(f"SERVO{ch}_FUNCTION", -1, 200, "", f"output {ch} function (32+{ch}: motor {ch}, "
-                             "59-66: RCIN9-16 pass-through)", ptype=i16,
-                             allowed=frozenset({32.0 + ch, *(float(f) for f in RCIN_PASSTHROUGH)})))
-    for ch in range(9, 17):
-        defs.append(ParamDef(f"SERVO{ch}_FUNCTION", -1, 200, "", f"output {ch} function (33-40 motors, "
-                             "51-66 RC input pass-through, 7 camera tilt)", ptype=i16))
-    defs.append(ParamDef("RC_OVERRIDE_TIME", -1.0, 120.0, "s", "RC_CHANNELS_OVERRIDE expires after this "
-                         "(-1 never); pass-through outputs go neutral"))
-    return defs
-
-
-RCIN_PASSTHROUGH = range(59, 67)
-"""SERVOn_FUNCTION values RCIN9…RCIN16: the output passes RC input 9–16 through."""
-
-ARDUSUB_DEFS: tuple[ParamDef, ...] = tuple(_ardusub_defs())
-"""ArduSub's names, types and meanings; the values (ArduSub's defaults) are in configs/firmware/params.yaml."""
 
 
 PARAM_DEFS: tuple[ParamDef, ...] = tuple([
@@ -263,25 +155,10 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "the controller account for the commands in flight", ptype="INT8"),
     ParamDef("WK_CLIMB_RATE", 0.01, 2.0, "m/s", "ALT_HOLD depth-target rate at full throttle stick"),
     ParamDef("WK_SURF_RATE", 0.01, 2.0, "m/s", "SURFACE mode ascent rate of the depth target"),
-    ParamDef("FS_GCS_ENABLE", 0, 4, "", "GCS failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),
-    ParamDef("FS_GCS_TIMEOUT", 0.1, 120.0, "s", "GCS heartbeat timeout"),
-    ParamDef("FS_EKF_ACTION", 0, 4, "", "EKF failsafe: 0 off, 1 warn, 2 disarm, 3 depth hold, 4 surface", ptype="INT8"),
-    ParamDef("FS_EKF_THRESH", 0.05, 100.0, "m",
-             "EKF failsafe when the position 1-sigma exceeds this (or the state is not finite)"),
-    ParamDef("SYSID_THISMAV", 1, 255, "", "this vehicle's MAVLink system id", ptype="INT16"),
-    ParamDef("SYSID_MYGCS", 1, 255, "", "the ground station's MAVLink system id", ptype="INT16"),
+    ParamDef("WK_EKF_SD_BAD", 0.05, 100.0, "m", "position 1-sigma that the EKF's test ratios (EKF_STATUS_REPORT's "
+             "variances) count as 1; FS_EKF_THRESH is a fraction of it"),
     ParamDef("WK_ORIGIN_LAT", -90.0, 90.0, "deg", "latitude of the local NED origin (GLOBAL_POSITION_INT)"),
     ParamDef("WK_ORIGIN_LON", -180.0, 180.0, "deg", "longitude of the local NED origin"),
-    # Telemetry stream rates (ArduPilot's SR0_*), Hz
-    ParamDef("SR0_RAW_SENS", 0, 50, "Hz", "SCALED_PRESSURE, SCALED_PRESSURE2", ptype="INT16"),
-    ParamDef("SR0_EXT_STAT", 0, 50, "Hz", "SYS_STATUS, MISSION_CURRENT, GPS_RAW_INT, NAMED_VALUE_FLOAT", ptype="INT16"),
-    ParamDef("SR0_RC_CHAN", 0, 50, "Hz", "SERVO_OUTPUT_RAW, RC_CHANNELS", ptype="INT16"),
-    ParamDef("SR0_POSITION", 0, 50, "Hz", "GLOBAL_POSITION_INT, LOCAL_POSITION_NED", ptype="INT16"),
-    ParamDef("SR0_EXTRA1", 0, 50, "Hz", "ATTITUDE", ptype="INT16"),
-    ParamDef("SR0_EXTRA2", 0, 50, "Hz", "VFR_HUD", ptype="INT16"),
-    ParamDef("SR0_EXTRA3", 0, 50, "Hz", "SYSTEM_TIME", ptype="INT16"),
-    ParamDef("SR0_PARAMS", 0, 50, "Hz", "PARAM_VALUE stream (ArduPilot paces the list by bandwidth)", ptype="INT16",
-             readonly=True),
     *ARDUSUB_DEFS,
     # Simulated sensors (SITL HAL)
     ParamDef("SIM_JSON_TMO", 0.05, 5.0, "s", "JSON SITL HAL: plant silent this long → sensors unhealthy"),
@@ -331,6 +208,7 @@ class ParameterTable:
     def __init__(self, defs: Iterable[ParamDef], values: dict[str, float]):
         self._defs = {d.name: d for d in defs}
         self._order = list(self._defs)
+        self._index = {name: i for i, name in enumerate(self._order)}
         missing = [n for n in self._order if n not in values]
         if missing:
             raise KeyError(f"no value for parameter(s): {', '.join(missing)}")
@@ -363,7 +241,7 @@ class ParameterTable:
         return self._defs[name]
 
     def index_of(self, name: str) -> int:
-        return self._order.index(name)
+        return self._index[name]
 
     def by_index(self, index: int) -> tuple[str, float]:
         name = self._order[index]
@@ -405,9 +283,10 @@ class ParameterTable:
 
 
 def load_params(name_or_path: str | Path = "params", overrides: dict[str, float] | None = None) -> ParameterTable:
-    """Defaults from ``configs/firmware/params.yaml`` (or a path), validated against :data:`PARAM_DEFS`.
+    """Defaults from ``configs/firmware/params.yaml`` (or a path), validated against :data:`PARAM_DEFS`, then
+    the rest of ArduSub's table (``configs/firmware/ardusub_params.csv``), read-only with ArduSub's defaults.
 
-    Every parameter needs a value there; an unknown name, a missing one or a
+    Every parameter of :data:`PARAM_DEFS` needs a value there; an unknown name, a missing one or a
     value out of range is a :class:`~bridge.configfile.ConfigError` naming the file and key.
     """
     from bridge.configfile import Field
@@ -415,11 +294,10 @@ def load_params(name_or_path: str | Path = "params", overrides: dict[str, float]
     path = resolve_config(name_or_path, "firmware")
     schema = {d.name: Field("int" if d.integer else "float", lo=d.lo, hi=d.hi, doc=d.doc) for d in PARAM_DEFS}
     values = load_config(path, schema)
-    table = ParameterTable(PARAM_DEFS, values)
+    extra, extra_values = reference_defs({d.name for d in PARAM_DEFS})
+    table = ParameterTable((*PARAM_DEFS, *extra), {**values, **extra_values})
     for name, value in (overrides or {}).items():
         why = table.set(name, value)
         if why:
             raise ConfigError(path, name, f"override {why}")
     return table
-
-

@@ -66,6 +66,8 @@ class TelemetrySnapshot:
         The estimate's 1-sigma of [x, z, θ] at the last tick; empty before it.
     setpoint : tuple of float
         The target [x (m), depth (m), θ (rad)] the controller held at the last tick; empty before it.
+    measured_x : float
+        The position fix's x at the last tick (m, north; NaN if none came that tick).
     """
 
     t: float | None
@@ -90,6 +92,7 @@ class TelemetrySnapshot:
     thrust: tuple[float, ...] = ()
     sigma: tuple[float, ...] = ()
     setpoint: tuple[float, ...] = ()
+    measured_x: float = math.nan
 
     @property
     def has_tick(self) -> bool:
@@ -121,6 +124,7 @@ class TelemetrySnapshot:
             return cls(t=None, x_hat=(), measured_depth=math.nan, pwm=(), heave_force=0.0, tau_e_hat=(0.0,) * 3,
                        ff_active=False, **common)
         return cls(t=float(r.t), x_hat=_floats(r.x_hat[:6]), measured_depth=float(r.frame.depth),
+                   measured_x=float(r.frame.x),
                    pwm=_floats(r.mix.pwm), heave_force=float(r.mix.tau_stages[-1][1]),
                    tau_e_hat=_floats(r.tau_e_hat[:3]), ff_active=bool(r.ff_active),
                    thrust=_floats(r.mix.thrust_cmd), sigma=_floats(r.sigma[:3]), setpoint=_floats(r.setpoint[:3]),

@@ -21,12 +21,11 @@ the windows: records stay deterministic and consistent.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .sea import Sea
+from bridge.models.waves import WaveComponents
 
 __all__ = ["NO_BUOY_ERRORS", "BuoyErrors", "BuoyTape", "WaveBuoy"]
 
@@ -69,11 +68,24 @@ def _block_draws(seed: int, tag: int, n: np.ndarray, draw) -> np.ndarray:
     return out
 
 
+class SeaSurface(Protocol):
+    """What a buoy needs of the sea (:class:`sitl.sea.Sea` is one): its components and its elevation."""
+
+    @property
+    def components(self) -> WaveComponents:
+        """The realised sea's wave components."""
+        ...
+
+    def elevation(self, x: float, t: np.ndarray) -> np.ndarray:
+        """ζ(x, t), m up."""
+        ...
+
+
 @dataclass(frozen=True)
 class WaveBuoy:
     """A surface-following wave buoy at an up-wave position x (m): it records ζ(x, t), with ``errors``."""
 
-    sea: Sea
+    sea: SeaSurface
     x: float
     sample_rate: float
     errors: BuoyErrors = NO_BUOY_ERRORS

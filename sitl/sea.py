@@ -170,7 +170,7 @@ def discretise_spectrum(spectrum: Callable[[np.ndarray], np.ndarray], omega_lo: 
 SEA_SCHEMA = {
     "name": Field("str", required=False, doc="default: the file's stem"),
     "spectrum": {
-        "type": Field("choice", choices=("jonswap", "measured")),
+        "type": Field("choice", choices=("jonswap", "measured", "none")),   # none: still water
         "hs": Field("float", lo=0.0, hi=30.0, lo_open=True, required=False, doc="m"),
         "tp": Field("float", lo=1.0, hi=30.0, required=False, doc="s"),
         "gamma": Field("float", lo=1.0, hi=10.0, default=3.3),
@@ -236,7 +236,7 @@ def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | Non
         if sp["hs"] > max_hs(sp["tp"]):
             raise ConfigError(path, "spectrum.hs", f"got {sp['hs']!r}; allowed: (0, {max_hs(sp['tp']):.3g}] m at tp "
                               f"{sp['tp']:g} s (steeper seas break, and the model cannot fly them: docs/models.md)")
-    else:
+    elif sp["type"] == "measured":
         if not sp["csv"]:
             raise ConfigError(path, "spectrum.csv", "required when spectrum.type is 'measured'")
         csv_path = Path(sp["csv"])
@@ -407,6 +407,8 @@ class Sea:
     def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
         """Build a sea from a validated sea config; ``seed`` overrides the config's."""
         sp = cfg["spectrum"]
+        if sp["type"] == "none":
+            return cls.still_water(cfg["water_depth"], cfg["name"])
         if sp["type"] == "jonswap":
             hs, tp, gamma = sp["hs"], sp["tp"], sp["gamma"]
             spectrum = lambda w: jonswap_spectrum(w, hs, tp, gamma)  # noqa: E731
@@ -443,10 +445,10 @@ class Sea:
         return cls.from_config(load_sea_config(case, overrides), seed)
 
     @classmethod
-    def still_water(cls, depth: float = 54.0) -> Sea:
-        """No waves (for hydrostatic checks)."""
+    def still_water(cls, depth: float = 54.0, name: str = "still") -> Sea:
+        """No waves (hydrostatic checks; ``configs/sea/still.yaml``, where another autopilot's MAVLink is compared)."""
         z = np.zeros(0)
-        return cls("still", WaveComponents(z, z, z, z, depth, False), lambda w: np.zeros_like(w), 1.0, 0.0, 0)
+        return cls(name, WaveComponents(z, z, z, z, depth, False), lambda w: np.zeros_like(w), 1.0, 0.0, 0)
 
     @property
     def water_depth(self) -> float:

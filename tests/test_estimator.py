@@ -39,7 +39,8 @@ def test_specific_force_at_rest_is_gravity_up():
 
 def test_dvl_beyond_its_range_degrades_gracefully_and_the_failsafe_acts():
     """No bottom lock (water too deep): velocity σ grows but the estimate stays honest; with the
-    position fix lost as well, σ grows past FS_EKF_THRESH and the failsafe surfaces the vehicle."""
+    position fix lost as well, σ grows past FS_EKF_THRESH × WK_EKF_SD_BAD and the failsafe disarms
+    the vehicle (FS_EKF_ACTION 2)."""
     from dataclasses import replace as dc_replace
 
     def velocity_sigma(water_depth: float) -> tuple[float, object]:
@@ -59,15 +60,16 @@ def test_dvl_beyond_its_range_degrades_gracefully_and_the_failsafe_acts():
     assert fw.ekf.accepted["dvl_u"] == 0 and s_deep > 1.5 * s_lock
     err = abs(fw.ekf.x[3] - m.plant.state.nu[0])
     assert err < 4 * s_deep and not fw.failsafe_ekf
-    fw.params.set("FS_EKF_THRESH", 0.3)
+    fw.params.set("FS_EKF_ACTION", 2)
+    fw.params.set("FS_EKF_THRESH", 0.12)                   # a 0.3 m 1-sigma
     read = hal.read_sensors
     hal.read_sensors = lambda: dc_replace(read(), x=float("nan"))
     for _ in range(1200):
         tick(m)
         if fw.failsafe_ekf:
             break
-    assert fw.failsafe_ekf and fw.mode == Mode.SURFACE
-    assert fw.ekf.sigma()[0] > fw.params["FS_EKF_THRESH"]
+    assert fw.failsafe_ekf and not fw.armed
+    assert fw.ekf.sigma()[0] > fw.params["FS_EKF_THRESH"] * fw.params["WK_EKF_SD_BAD"]
 
 
 @pytest.fixture(scope="module")

@@ -11,6 +11,7 @@ from bridge.forecast import Forecast, inject_spectral_noise, oracle_forecast
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.waves import elevation
 from bridge.schemas import load_vehicle_config
+from firmware_py.ardusub_params import reference_table
 from firmware_py.forecast import ForecastHandoff
 from firmware_py.mixer import MotorMixer
 from firmware_py.params import PARAM_DEFS, load_params
@@ -207,7 +208,11 @@ def test_neutral_output_is_1500(thrusters):
 
 def test_parameter_table_names_ranges_and_runtime_sets():
     params = load_params()
-    assert len(params) == len(PARAM_DEFS)
+    ardusub = {row[0] for row in reference_table()}
+    # Wavekeep's own, then the rest of ArduSub 4.7's table (read-only)
+    assert len(params) == len(PARAM_DEFS) + len(ardusub - {d.name for d in PARAM_DEFS})
+    assert ardusub <= set(params.names())
+    assert all(params.definition(n).readonly for n in ardusub - {d.name for d in PARAM_DEFS})
     assert all(len(n) <= 16 for n in params.names())
     v0 = params.version
     assert params.set("WK_PD_KP_X", 2.0) is None and params["WK_PD_KP_X"] == 2.0 and params.version == v0 + 1
@@ -285,3 +290,17 @@ def test_parameter_set_accepts_exactly_the_allowed_values(name, value):
         assert why is None and table[name] == float(value)
     else:
         assert why and table[name] == old
+
+
+def test_a_bad_ardusub_table_names_the_file_and_the_line(tmp_path):
+    """configs/firmware/ardusub_params.csv is read and checked: a bad row is a ConfigError naming its line."""
+    from bridge.configfile import ConfigError
+    from firmware_py.ardusub_params import reference_table
+
+    bad = tmp_path / "ardusub_params.csv"
+    bad.write_text("# a comment\nname,value,type\nANGLE_MAX,4500,INT16\nFS_PRESS_MAX,lots,INT32\n")
+    with pytest.raises(ConfigError, match="line 4"):
+        reference_table(str(bad))
+    bad.write_text("name,value,type\nANGLE_MAX,4500,INT64\n")
+    with pytest.raises(ConfigError, match="INT64"):
+        reference_table(str(bad))

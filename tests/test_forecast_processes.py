@@ -55,7 +55,9 @@ def world(tmp_path):
     wait_line(tmp_path / "plant.log", "ready")
     procs["firmware"] = start(["firmware", "--hal", f"sitl:127.0.0.1:{pport}", "--mavlink",
                                f"udpout:127.0.0.1:{gport}", "--speedup", "1", "--network", str(net),
-                               "--set", "FS_GCS_ENABLE=0"], tmp_path / "firmware.log")
+                               # a ground station without a joystick that arms at once: no pilot-input failsafe
+                               # (as ArduSub's, it would disarm 3 s after boot)
+                               "--set", "FS_GCS_ENABLE=0", "--set", "FS_PILOT_INPUT=0"], tmp_path / "firmware.log")
     wait_line(tmp_path / "firmware.log", "ready")
     gcs = mavutil.mavlink_connection(f"udpin:127.0.0.1:{gport}", source_system=255, dialect="ardupilotmega")
     try:

@@ -29,8 +29,15 @@ def _lines(proc: subprocess.Popen) -> queue.Queue:
     return q
 
 
+_SEEN: list[tuple[float, str]] = []      # lines read while waiting for another
+
+
 def _expect(q: queue.Queue, text: str, timeout: float = 20.0) -> float:
-    """Wait for a stdout line containing ``text``; its arrival time."""
+    """Wait for a stdout line containing ``text`` (or take one already read); its arrival time."""
+    for i, (t, line) in enumerate(_SEEN):
+        if text in line:
+            del _SEEN[i]
+            return t
     end = time.monotonic() + timeout
     while (left := end - time.monotonic()) > 0:
         try:
@@ -41,6 +48,7 @@ def _expect(q: queue.Queue, text: str, timeout: float = 20.0) -> float:
             break
         if text in line:
             return t
+        _SEEN.append((t, line))
     raise AssertionError(f"no line with {text!r} within {timeout} s")
 
 
@@ -59,9 +67,12 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
         ack = gcs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, 4, timeout=10.0)           # GUIDED: holds station
         assert ack is not None and ack.result == 0
         t_mode = _expect(q, "Mode GUIDED")
+        # This ground station has no joystick: as ArduSub's, the pilot-input failsafe trips once,
+        # FS_PILOT_TIMEOUT (3 s) after boot; armed after that, the vehicle flies on without sticks
+        _expect(q, "Lost manual control")
         ack = gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, timeout=10.0)
         assert ack is not None and ack.result == 0
-        t_arm = _expect(q, "Armed")
+        t_arm = _expect(q, "Arming motors")                      # ArduSub's words
         time.sleep(2.5)                                          # heard (a heartbeat at 1 Hz), so the failsafe is armed
         gcs.heartbeats(False)                                    # the GCS goes silent: failsafe
         t_fs = _expect(q, "GCS failsafe")
@@ -80,5 +91,5 @@ def test_live_prints_events_as_they_happen_logs_them_and_ends_with_the_table(tmp
     assert any("stopped after" in line for line in out) and any("RMSE" in line for line in out)
     text = log.read_text()
     assert any("the controller held station" in line for line in out)
-    for word in ("Mode GUIDED", "Armed", "GCS failsafe", "RMSE"):
+    for word in ("Mode GUIDED", "Arming motors", "GCS failsafe", "Disarming motors", "RMSE"):
         assert word in text, word

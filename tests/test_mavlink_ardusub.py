@@ -5,6 +5,8 @@ import math
 import os
 import time
 
+import pytest
+
 os.environ["MAVLINK20"] = "1"
 # fixtures, one live vehicle per module
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -46,7 +48,9 @@ def test_ardusub_groups_stream_the_other_messages(v):
     for field in ("present", "enabled", "health"):
         bits = getattr(s, f"onboard_control_sensors_{field}")
         assert bits & PREARM and bits & mavlink.MAV_SYS_STATUS_SENSOR_BATTERY
-        assert not bits & mavlink.MAV_SYS_STATUS_GEOFENCE                  # no fence: MAVProxy says no breach
+    # a fence, never enabled and healthy (ArduSub's): MAVProxy reports no breach
+    assert [bool(getattr(s, f"onboard_control_sensors_{f}") & mavlink.MAV_SYS_STATUS_GEOFENCE)
+            for f in ("present", "enabled", "health")] == [True, False, True]
     # on request: EXTENDED_SYS_STATE (ArduSub reports no landed state) and the attitude quaternion
     ext = _request(v, mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, "EXTENDED_SYS_STATE")
     assert ext is not None and ext.landed_state == mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -97,11 +101,12 @@ def test_prearm_health_follows_arming_check(v):
         s = _request(v, mavlink.MAVLINK_MSG_ID_SYS_STATUS, "SYS_STATUS")
         return bool(s.onboard_control_sensors_health & PREARM)
     assert prearm_healthy()
+    assert v.gs.set_param("ARMING_CHECK", 1).param_value == 1.0               # all (ArduSub's 448: no INS check)
     assert v.gs.set_param("WK_EKF_CONV", 1e-4).param_value < 1e-3             # the EKF is never converged now
     time.sleep(0.2)
     assert not prearm_healthy()
     assert v.gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == MAV_RESULT.FAILED
-    assert v.gs.set_param("ARMING_CHECK", 0).param_value == 0.0
+    assert v.gs.set_param("ARMING_CHECK", 448).param_value == 448.0           # ArduSub's: RC, voltage, battery
     time.sleep(0.2)
     assert prearm_healthy()
     assert v.gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == MAV_RESULT.ACCEPTED
@@ -117,26 +122,57 @@ def test_read_only_parameters_are_denied_as_ardupilot_does(v):
     assert abs(v.gs.set_param("JS_GAIN_DEFAULT", 0.7).param_value - 0.7) < 1e-6
 
 
+def _servo(v):
+    return _request(v, mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, "SERVO_OUTPUT_RAW")
+
+
+def _sub_info(v, name: str) -> float:
+    return v.gs.wait_type("NAMED_VALUE_FLOAT", lambda m: m.name == name, 3.0, v.gs.mark()).value
+
+
 def test_do_set_servo_and_pass_through(v):
     g = v.gs
+    # output 9 passes RC input 9 through (ArduSub's SERVO9_FUNCTION 59): DO_SET_SERVO holds until the input moves
     assert g.command(mavlink.MAV_CMD_DO_SET_SERVO, 9, 1700).result == MAV_RESULT.ACCEPTED
-    assert _request(v, mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, "SERVO_OUTPUT_RAW").servo9_raw == 1700
+    assert _servo(v).servo9_raw == 1700
+    g.send(mavlink.MAVLink_rc_channels_override_message(1, 1, *[65535] * 8, 1600, *[0] * 7, 0, 0))
+    assert g.wait_type("SERVO_OUTPUT_RAW", lambda m: m.servo9_raw == 1600, 3.0)
+    assert _request(v, mavlink.MAVLINK_MSG_ID_RC_CHANNELS, "RC_CHANNELS").chan9_raw == 1600
     since = g.mark()
     assert g.command(mavlink.MAV_CMD_DO_SET_SERVO, 3, 1700).result == MAV_RESULT.FAILED
     assert g.wait_type("STATUSTEXT", lambda m: "Channel 3 is already in use" in m.text, 2.0, since)
+    assert g.command(mavlink.MAV_CMD_DO_SET_SERVO, 10, 1700).result == MAV_RESULT.FAILED   # the camera's
     assert g.command(mavlink.MAV_CMD_DO_SET_SERVO, 17, 1700).result == MAV_RESULT.FAILED
     assert g.command(mavlink.MAV_CMD_DO_SET_SERVO, math.nan, 1700).result == MAV_RESULT.FAILED
-    # output 10 passes lights 1 (RC 9) through; button 14 is "lights 1 brighter"
-    g.set_param("SERVO10_FUNCTION", 59)
+
+
+def test_lights_camera_tilt_and_the_sub_panel_values(v):
+    """ArduSub 4.7's accessories: lights on outputs with function 181, one JS_LIGHTS_STEPS step a press; the
+    camera mount on function 7 (output 10), tilting at MNT1_RC_RATE while its button is held; and the
+    NAMED_VALUE_FLOATs QGroundControl's Sub panel reads (CamTilt, Lights1, PilotGain...)."""
+    g = v.gs
+    g.set_param("SERVO11_FUNCTION", 181)
     time.sleep(0.2)
-    assert _request(v, mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, "SERVO_OUTPUT_RAW").servo10_raw == 1100
-    _manual(v, buttons=1 << 14)
+    assert _servo(v).servo11_raw == 0                                          # not set until the light changes
+    _manual(v, buttons=1 << 14)                                                # lights 1 brighter (32)
     _manual(v, buttons=0)
-    time.sleep(0.2)
-    out = _request(v, mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, "SERVO_OUTPUT_RAW")
-    assert out.servo10_raw == 1200 and out.servo9_raw == 1700
-    assert _request(v, mavlink.MAVLINK_MSG_ID_RC_CHANNELS, "RC_CHANNELS").chan9_raw == 1200
-    v.link.state.rc[8] = 1100
+    assert g.wait_type("SERVO_OUTPUT_RAW", lambda m: m.servo11_raw == 1200, 3.0)   # 1100 + 800 / 8
+    assert _sub_info(v, "Lights1") == pytest.approx(0.125)                     # (1200 − 1500) / 400 / 2 + ½
+    level = _servo(v).servo10_raw
+    assert level == 1754                                                       # 0° in −90…20° over 1100–1900
+    assert _sub_info(v, "CamTilt") == pytest.approx(1.0 - ((1754 - 1500) / 400 / 2 + 0.5), abs=1e-6)
+    end = time.monotonic() + 1.0
+    while time.monotonic() < end:                                              # tilt up (22) held for 1 s
+        _manual(v, buttons=1 << 10)
+        time.sleep(0.05)
+    _manual(v, buttons=0)
+    up = _servo(v).servo10_raw - level                                         # 30°/s over 110° of 800 µs
+    assert 800 * 30 / 110 * 0.6 < up < 800 * 30 / 110 * 1.6
+    _manual(v, buttons=1 << 7)                                                 # centre (21)
+    _manual(v, buttons=0)
+    assert g.wait_type("SERVO_OUTPUT_RAW", lambda m: m.servo10_raw == 1754, 3.0)
+    assert _sub_info(v, "PilotGain") == pytest.approx(v.link.joystick.gain)
+    assert _sub_info(v, "RFTarget") == pytest.approx(-0.01)
 
 
 def test_do_reposition_as_ardusub(v):
@@ -200,6 +236,38 @@ def test_pilot_input_failsafe_disarms(v):
     assert g.wait_type("STATUSTEXT", lambda m: m.text == "Lost manual control", 5.0, since)
     assert g.heartbeat(lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, 3.0)
     assert v.link.state.rc[4] == 1500
+
+
+def test_pilot_input_failsafe_at_ardusubs_default_disarms_when_the_joystick_stops(v):
+    """FS_PILOT_INPUT at ArduSub's default (2, disarm): the joystick streams, the vehicle is armed, the stream
+    stops; FS_PILOT_TIMEOUT (3 s) later "Lost manual control" (CRITICAL), a disarm, a CRITICAL heartbeat. As
+    ArduSub's, it trips once per loss: a vehicle armed after a loss and flown without sticks stays armed."""
+    g, defaults = v.gs, load_params()
+    assert defaults["FS_PILOT_INPUT"] == 2 and defaults["FS_PILOT_TIMEOUT"] == 3.0
+    g.set_param("FS_PILOT_INPUT", 2)                  # the fixture's GCS has no joystick: it turned it off
+    end = time.monotonic() + 1.0
+    while time.monotonic() < end:
+        _manual(v)
+        time.sleep(0.1)
+    assert g.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == MAV_RESULT.ACCEPTED
+    end = time.monotonic() + 2.0
+    while time.monotonic() < end:                     # sticks for 2 s: no failsafe
+        _manual(v)
+        time.sleep(0.1)
+    assert v.fw.armed and not v.link.joystick.failsafe
+    t0, since = time.monotonic(), g.mark()           # the joystick stops
+    lost = g.wait_type("STATUSTEXT", lambda m: m.text == "Lost manual control", 8.0, since)
+    assert lost is not None and lost.severity == mavlink.MAV_SEVERITY_CRITICAL
+    assert 2.0 < time.monotonic() - t0 < 6.0
+    hb = g.heartbeat(lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, 3.0)
+    assert hb is not None and hb.system_status == mavlink.MAV_STATE_CRITICAL and not v.fw.armed
+    assert g.wait_type("STATUSTEXT", lambda m: m.text == "Disarming motors", 2.0, since)
+    # the loss is over for the failsafe: armed again without sticks (a GCS flying GUIDED), it stays armed
+    assert g.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == MAV_RESULT.ACCEPTED
+    time.sleep(4.0)
+    assert v.fw.armed
+    _manual(v)                                         # sticks again: the failsafe clears
+    assert g.heartbeat(lambda m: m.system_status == mavlink.MAV_STATE_ACTIVE, 3.0)
 
 
 def test_pressure_calibration_zeroes_the_depth(v):

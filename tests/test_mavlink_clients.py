@@ -52,7 +52,7 @@ def test_mavsdk_reads_and_sets_the_vehicle(v, tmp_path):
             if state.is_connected:
                 break
         steps.append('got = {"sysid_mygcs')
-        got = {"sysid_mygcs": await drone.param.get_param_int("SYSID_MYGCS")}
+        got = {"sysid_mygcs": await drone.param.get_param_int("MAV_GCS_SYSID")}
         steps.append('await drone.param.set_param_int')
         await drone.param.set_param_int("JS_GAIN_STEPS", 5)
         steps.append('await drone.param.set_param_float')
@@ -146,7 +146,7 @@ def test_qgroundcontrol_connect_sequence_is_answered(v):
     assert last is not None
     got = {m.param_id for m in g.log[since:] if m.get_type() == "PARAM_VALUE"}
     assert {"FRAME_CONFIG", "BATT_CAPACITY", "JS_GAIN_DEFAULT", "BTN0_FUNCTION", "SERVO16_FUNCTION",
-            "RCMAP_THROTTLE", "SR0_PARAMS", "MOT_PWM_MIN", "ARMING_CHECK", "FS_PILOT_INPUT"} <= got
+            "RCMAP_THROTTLE", "MAV1_PARAMS", "MOT_PWM_MIN", "ARMING_CHECK", "FS_PILOT_INPUT"} <= got
     answered["PARAM_REQUEST_LIST"] = f"{last.param_count} PARAM_VALUE"
     for kind in (0, 1, 2):                                      # mission, fence, rally
         since = g.mark()

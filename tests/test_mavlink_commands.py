@@ -39,33 +39,39 @@ def test_unknown_commands_and_wrong_targets(v, fast_heartbeat):
 def test_mode_switches_and_unknown_mode(v, fast_heartbeat):
     gs = v.gs
     gs.drain()
-    gs.send(mavlink.MAVLink_set_mode_message(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, Mode.STABILIZE))
-    ack = gs.wait_type("COMMAND_ACK", lambda m: m.command == mavlink.MAVLINK_MSG_ID_SET_MODE)
-    assert ack.result == MAV_RESULT.ACCEPTED
-    assert gs.heartbeat(lambda m: m.custom_mode == Mode.STABILIZE).base_mode == 81
     since = gs.mark()
+    gs.send(mavlink.MAVLink_set_mode_message(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, Mode.STABILIZE))
+    assert gs.heartbeat(lambda m: m.custom_mode == Mode.STABILIZE).base_mode == 81
     assert gs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, Mode.POSHOLD).result == MAV_RESULT.ACCEPTED
     assert gs.heartbeat(lambda m: m.custom_mode == Mode.POSHOLD).base_mode == 89     # GUIDED_ENABLED
-    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "Mode POSHOLD", timeout=2.0, since=since) is not None
-    for bad in (Mode.AUTO, 42, Mode.MOTOR_DETECT):
+    # ArduSub 4.7: no COMMAND_ACK for SET_MODE, and no STATUSTEXT for a mode that was entered
+    gs.collect(0.3)
+    assert not [m for m in gs.log[since:] if m.get_type() == "STATUSTEXT" or (m.get_type() == "COMMAND_ACK"
+                                                                              and m.command == 11)]
+    for bad, text in ((Mode.AUTO, "Flight mode change failed AUTO"), (42, "No such mode 42"),
+                      (Mode.MOTOR_DETECT, "Flight mode change failed MOTOR_DETECT")):
+        since = gs.mark()
         assert gs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, bad).result == MAV_RESULT.FAILED
-    gs.drain()
+        said = gs.wait_type("STATUSTEXT", lambda m, text=text: m.text == text, timeout=2.0, since=since)
+        assert said is not None and said.severity == mavlink.MAV_SEVERITY_WARNING
+    since = gs.mark()
     gs.send(mavlink.MAVLink_set_mode_message(1, 1, 77))
-    assert gs.wait_type("COMMAND_ACK", lambda m: m.command == 11).result == MAV_RESULT.FAILED
+    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "No such mode 77", timeout=2.0, since=since)
     assert gs.heartbeat().custom_mode == Mode.POSHOLD and v.fw.mode == Mode.POSHOLD
-    # Without the custom-mode flag ArduPilot's base modes are not supported
-    assert gs.command(mavlink.MAV_CMD_DO_SET_MODE, 0, Mode.MANUAL).result == MAV_RESULT.UNSUPPORTED
+    # Without the custom-mode flag ArduPilot's base modes are refused (ArduSub: DENIED)
+    assert gs.command(mavlink.MAV_CMD_DO_SET_MODE, 0, Mode.MANUAL).result == MAV_RESULT.DENIED
     assert gs.command(mavlink.MAV_CMD_DO_SET_MODE, 1, Mode.MANUAL).result == MAV_RESULT.ACCEPTED
 
 
 def test_arming_prearm_failure_then_force_then_success(v, fast_heartbeat):
     gs = v.gs
+    assert gs.set_param("ARMING_CHECK", 1).param_value == 1.0     # all checks (ArduSub's 448 has no INS check)
     assert gs.set_param("WK_EKF_CONV", 1e-4).param_value == pytest.approx(1e-4)   # nothing converges to that
     assert v.fw.params["WK_EKF_CONV"] == 1e-4                                        # the float32 tidied
     since = gs.mark()
     ack = gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
     assert ack.result == MAV_RESULT.FAILED
-    assert gs.wait_type("STATUSTEXT", lambda m: m.text.startswith("PreArm"), timeout=2.0, since=since) is not None
+    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "Arm: AHRS not healthy", timeout=2.0, since=since)
     assert not gs.heartbeat().base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED
     assert gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196).result == MAV_RESULT.ACCEPTED
     assert gs.heartbeat(lambda m: m.base_mode == 209) is not None
@@ -110,7 +116,9 @@ def test_disarmed_neutral_then_manual_control_and_rc_override_move_the_servos(v,
 def test_motor_test_armed_only_and_times_out(v, fast_servo):
     gs = v.gs
     motor_test = mavlink.MAV_CMD_DO_MOTOR_TEST
-    assert gs.command(motor_test, 1, mavlink.MOTOR_TEST_THROTTLE_PWM, 1700, 1).result == MAV_RESULT.DENIED
+    since = gs.mark()                           # disarmed: FAILED, in ArduSub's words
+    assert gs.command(motor_test, 1, mavlink.MOTOR_TEST_THROTTLE_PWM, 1700, 1).result == MAV_RESULT.FAILED
+    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "Arm motors before testing motors.", 2.0, since=since)
     assert gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == 0
     for _ in range(6):                         # the GCS re-sends at >= 2 Hz
         assert gs.command(motor_test, 3, mavlink.MOTOR_TEST_THROTTLE_PWM, 1700, 1).result == 0
@@ -181,13 +189,19 @@ def test_gcs_failsafe_disarms_after_silence(v, fast_heartbeat):
     gs.heartbeats(False)
     gs.send(mavlink.MAVLink_heartbeat_message(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3))
     t0, since = time.monotonic(), gs.mark()                # the last heartbeat: now (not up to 1 s ago)
-    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe", timeout=8.0, since=since) is not None
+    # ArduSub's words: the disarm, and "MYGCS: 255, heartbeat lost" (WARNING) once 30 s of vehicle time have
+    # passed since boot (its warning clock starts at boot), then every 30 s
+    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "Disarming motors", timeout=8.0, since=since) is not None
     hb = gs.heartbeat(lambda m: not m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED, timeout=3.0)
     assert hb is not None and hb.system_status == mavlink.MAV_STATE_CRITICAL
     assert 1.8 < time.monotonic() - t0 < 7.0
+    if v.fw.last.t > 32.0:
+        lost = gs.wait_type("STATUSTEXT", lambda m: m.text == "MYGCS: 255, heartbeat lost", timeout=1.0, since=since)
+        assert lost is not None and lost.severity == mavlink.MAV_SEVERITY_WARNING
     since = gs.mark()
     gs.heartbeats(True)
-    assert gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS failsafe cleared", timeout=4.0, since=since) is not None
+    cleared = gs.wait_type("STATUSTEXT", lambda m: m.text == "GCS Failsafe Cleared", timeout=4.0, since=since)
+    assert cleared is not None and cleared.severity == mavlink.MAV_SEVERITY_WARNING
     assert gs.heartbeat(lambda m: m.system_status == mavlink.MAV_STATE_STANDBY) is not None
 
 
@@ -199,7 +213,7 @@ def test_home_position_origin_and_do_set_home(v):
         assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_HOME_POSITION).result == 0
         home = gs.wait_type("HOME_POSITION", timeout=3.0)
         assert (home.latitude, home.longitude, home.altitude) == (round(lat0 * 1e7), round(lon0 * 1e7), 0)
-        assert (home.x, home.y, home.z) == (0.0, 0.0, 0.0) and list(home.q) == [1.0, 0.0, 0.0, 0.0]
+        assert (home.x, home.y, home.z) == (0.0, 0.0, 0.0) and all(math.isnan(q) for q in home.q)   # q unknown
         assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN).result == 0
         origin = gs.wait_type("GPS_GLOBAL_ORIGIN", timeout=3.0)
         assert (origin.latitude, origin.longitude, origin.altitude) == (round(lat0 * 1e7), round(lon0 * 1e7), 0)
@@ -230,6 +244,15 @@ def test_home_position_origin_and_do_set_home(v):
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 2, 0, 0, 0, lat0, lon0, 0).result == MAV_RESULT.FAILED
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 95.0, lon0, 0).result == MAV_RESULT.FAILED
         assert gs.command(mavlink.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, math.nan, lon0, 0).result == MAV_RESULT.FAILED
+        # Arming moves home to the vehicle and pushes GPS_GLOBAL_ORIGIN and HOME_POSITION (ArduSub)
+        since = gs.mark()
+        assert gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == 0
+        origin = gs.wait_type("GPS_GLOBAL_ORIGIN", timeout=3.0, since=since)
+        home = gs.wait_type("HOME_POSITION", timeout=3.0, since=since)
+        assert origin is not None and home is not None
+        assert home.altitude == pytest.approx(-1000.0 * float(v.fw.last.x_hat[1]), abs=300.0)
+        assert home.x == pytest.approx(float(v.fw.last.x_hat[0]), abs=0.5)
+        assert gs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == 0
         # Streamable at a rate of one's choosing
         assert gs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_HOME_POSITION,
                           200_000).result == 0

@@ -70,7 +70,7 @@ def test_garbage_truncated_and_hostile_values_are_counted_and_survived(v, fast_h
     assert c1["rx_unsupported"] > c0["rx_unsupported"]
     assert c1["handler_errors"] == c0["handler_errors"] and c1["io_errors"] == c0["io_errors"]
     assert s1["tasks"]["gcs"]["errors"] == 0 and s1["overruns"] - s0["overruns"] <= 3
-    assert v.fw.params["SR0_RAW_SENS"] == v.defaults["SR0_RAW_SENS"]      # start_stop 7: ignored
+    assert v.fw.params["MAV1_RAW_SENS"] == v.defaults["MAV1_RAW_SENS"]      # start_stop 7: ignored
 
 
 def test_flood_keeps_the_loop_on_time(v):
@@ -126,7 +126,7 @@ def test_a_second_endpoint_gets_its_own_replies(v):
         assert ack.result == 0 and ack.target_system == 254
         assert gs2.wait_type("AUTOPILOT_VERSION") is not None
         assert not [m for m in v.gs.collect(0.5) if m.get_type() in ("COMMAND_ACK", "AUTOPILOT_VERSION")]
-        # Pilot input from a system that is not SYSID_MYGCS is refused
+        # Pilot input from a system that is not MAV_GCS_SYSID is refused
         before = v.link.counters["rx_ignored"]
         gs2.send(mavlink.MAVLink_manual_control_message(1, 1000, 0, 500, 0, 0))
         time.sleep(0.4)

@@ -15,6 +15,7 @@ from mavlink_gcs import free_port, rate
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.mavlink import CAPABILITIES, MavlinkLink
+from firmware_py.mavlink.streams import Streams
 from firmware_py.modes import MAV_RESULT, Mode
 from firmware_py.params import load_params
 from firmware_py.sensors import depth_to_pressure
@@ -62,9 +63,12 @@ def test_heartbeat_and_default_streams(v):
     ss = by["SYS_STATUS"][-1]
     assert ss.onboard_control_sensors_present & mavlink.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
     assert ss.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_AHRS          # EKF converged
-    assert not ss.onboard_control_sensors_enabled & mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS   # disarmed
+    assert ss.onboard_control_sensors_enabled & mavlink.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS   # even disarmed (ArduSub)
+    assert ss.onboard_control_sensors_health & mavlink.MAV_SYS_STATUS_SENSOR_GPS         # the position fix
+    assert not ss.onboard_control_sensors_enabled & mavlink.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL    # MANUAL
     named = {m.name: m.value for m in by["NAMED_VALUE_FLOAT"]}
-    assert set(named) == {"FF_AGE", "FF_ON", "FF_X", "FF_Z", "FF_M", "TICK_P99", "TICK_MISS"}
+    assert set(named) == {"FF_AGE", "FF_ON", "FF_X", "FF_Z", "FF_M", "TICK_P99", "TICK_MISS", "CamTilt", "CamPan",
+                          "TetherTrn", "Lights1", "Lights2", "PilotGain", "InputHold", "RollPitch", "RFTarget"}
     assert 0.0 < named["TICK_P99"] < 50.0 and named["TICK_MISS"] >= 0.0   # control-task compute p99 (ms)
     assert named["FF_AGE"] >= 0.0 and named["FF_ON"] == 0.0        # a forecast, but disarmed: FF off
 
@@ -77,7 +81,7 @@ def test_request_data_stream_and_message_interval(v):
     gs.drain()
     slow = attitude(2.1)
     assert 3 <= len(slow) <= 6 and rate(slow, lambda m: m.time_boot_ms / 1e3) == pytest.approx(2, rel=0.3)
-    assert v.fw.params["SR0_EXTRA1"] == 2
+    assert v.fw.params["MAV1_EXTRA1"] == 2
     # A per-message interval overrides the group: ATTITUDE at 20 Hz
     ack = gs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_ATTITUDE, 50_000)
     assert ack.result == MAV_RESULT.ACCEPTED
@@ -99,7 +103,7 @@ def test_request_data_stream_and_message_interval(v):
     # REQUEST_DATA_STREAM start_stop 0 stops a group (and resets its messages' own intervals)
     gs.send(mavlink.MAVLink_request_data_stream_message(1, 1, mavlink.MAV_DATA_STREAM_EXTRA1, 10, 0))
     time.sleep(0.3)
-    assert v.fw.params["SR0_EXTRA1"] == 0
+    assert v.fw.params["MAV1_EXTRA1"] == 0
     gs.drain()
     assert not attitude(0.8)
     # An unknown message id is refused with ArduPilot's words
@@ -110,7 +114,7 @@ def test_request_data_stream_and_message_interval(v):
     replies = [m for m in gs.collect(0.6) if m.get_type() in ("COMMAND_ACK", "STATUSTEXT")]
     assert [m.result for m in replies if m.get_type() == "COMMAND_ACK"] == [MAV_RESULT.DENIED]
     assert [m.text for m in replies if m.get_type() == "STATUSTEXT"] == ["No ap_message for mavlink id (12345)"]
-    assert all(v.fw.params[g] == 4 for g in ("SR0_RAW_SENS", "SR0_EXTRA1", "SR0_EXTRA3"))
+    assert all(v.fw.params[g] == 4 for g in ("MAV1_RAW_SENS", "MAV1_EXTRA1", "MAV1_EXTRA3"))
 
 
 def test_request_message_capabilities_and_timesync(v):
@@ -126,7 +130,7 @@ def test_request_message_capabilities_and_timesync(v):
     assert gs.command(mavlink.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == MAV_RESULT.ACCEPTED
     assert gs.wait_type("AUTOPILOT_VERSION") is not None
     # Any streamed message, once, on request — also while its stream is off
-    v.fw.params.set("SR0_EXTRA3", 0)
+    v.fw.params.set("MAV1_EXTRA3", 0)
     assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_SYSTEM_TIME).result == 0
     st = gs.wait_type("SYSTEM_TIME")
     assert st is not None and abs(st.time_unix_usec / 1e6 - time.time()) < 5
@@ -154,10 +158,7 @@ def test_telemetry_packs_whatever_the_estimate_holds():
         fw.scheduler.run_tick()
         for x_hat in (np.full(6, np.nan), np.full(6, np.inf), np.array([1e12, -1e12, 1e3, 1e9, -1e9, 1e9])):
             fw.last = dataclasses.replace(fw.last, x_hat=x_hat, tau_e_hat=x_hat[:3])
-            for mid in [*list(link._overrides), mavlink.MAVLINK_MSG_ID_HEARTBEAT]:
-                link._overrides.pop(mid, None)
-            link._next_due.clear()
-            link._interval.clear()
+            link.streams = Streams(fw.params)          # every stream due now
             link._outbox.clear()
             link.update(fw.scheduler.next_slot_ns())
             types = set()
@@ -172,13 +173,18 @@ def test_telemetry_packs_whatever_the_estimate_holds():
         link.stop()
 
 
-def test_gps_raw_int_without_a_fix_in_extended_status(v):
-    """GPS_RAW_INT streams with SYS_STATUS (SR0_EXT_STAT, 2 Hz) with fix_type 0 — no GPS, as ArduSub under water."""
+def test_gps_raw_int_reports_the_position_fix_in_extended_status(v):
+    """GPS_RAW_INT streams with SYS_STATUS (MAV1_EXT_STAT, 2 Hz): the position fix, as ArduSub reports an
+    acoustic positioning system fed to it as a GPS — a 3D fix at the fix's latitude, altitude −depth,
+    satellites and DOPs unknown."""
     msgs = [m for m in v.gs.collect(2.6) if m.get_type() == "GPS_RAW_INT"]
     assert 4 <= len(msgs) <= 7
     g = msgs[-1]
-    assert (g.fix_type, g.lat, g.lon, g.satellites_visible, g.eph, g.epv) == (
-        mavlink.GPS_FIX_TYPE_NO_GPS, 0, 0, 0, 65535, 65535)
+    p = v.fw.params
+    assert (g.fix_type, g.lon, g.satellites_visible, g.eph, g.epv) == (
+        mavlink.GPS_FIX_TYPE_3D_FIX, round(p["WK_ORIGIN_LON"] * 1e7), 255, 65535, 65535)
+    x = math.radians(g.lat * 1e-7 - p["WK_ORIGIN_LAT"]) * 6378137.0
+    assert abs(x - float(v.fw.last.x_hat[0])) < 0.5 and abs(g.alt / 1000.0 + float(v.fw.last.x_hat[1])) < 0.5
     # The group's rate paces it; and it can be asked for
     gs = v.gs
     gs.send(mavlink.MAVLink_request_data_stream_message(1, 1, mavlink.MAV_DATA_STREAM_EXTENDED_STATUS, 0, 0))
@@ -186,4 +192,4 @@ def test_gps_raw_int_without_a_fix_in_extended_status(v):
     gs.drain()
     assert not [m for m in gs.collect(1.0) if m.get_type() == "GPS_RAW_INT"]
     assert gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, mavlink.MAVLINK_MSG_ID_GPS_RAW_INT).result == MAV_RESULT.ACCEPTED
-    assert gs.wait_type("GPS_RAW_INT", lambda m: m.fix_type == 0, timeout=2.0) is not None
+    assert gs.wait_type("GPS_RAW_INT", lambda m: m.fix_type == mavlink.GPS_FIX_TYPE_3D_FIX, timeout=2.0) is not None

@@ -42,7 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stick-model", choices=("auto", "ardusub", "wavekeep"), default="auto",
                    help="rc: how the autopilot turns sticks into thrust (auto: wavekeep if it has WK_TAU_MAX_X)")
     p.add_argument("--target-system", type=int, default=1)
-    p.add_argument("--sysid", type=int, default=255, help="our system id: the autopilot's SYSID_MYGCS")
+    p.add_argument("--sysid", type=int, default=255, help="our system id: the autopilot's MAV_GCS_SYSID")
     p.add_argument("--compid", type=int, default=191, help="our component id (MAV_COMP_ID_ONBOARD_COMPUTER)")
     p.add_argument("--lockstep", action="store_true", help="SITL: tick on the stand-in's LOCKSTEP markers")
     p.add_argument("--stale", type=float, default=0.5, help="s without ATTITUDE before the overrides are released")

@@ -5,7 +5,7 @@ reads what has arrived (waiting at most ``timeout`` for the first datagram) and
 keeps the newest of each message the HAL needs, stamped with the autopilot's
 clock (``time_boot_ms``) and the local arrival time (``time.monotonic``).
 
-The companion speaks as the ground station's system (``SYSID_MYGCS``, 255 by
+The companion speaks as the ground station's system (``MAV_GCS_SYSID``, 255 by
 default — ArduSub takes RC_CHANNELS_OVERRIDE from that system only) with its
 own component id (191, MAV_COMP_ID_ONBOARD_COMPUTER).
 """

@@ -14,12 +14,13 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
-from .param_protocol import BANNER
-from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED
+from .identity import banner
+from .pilot import Joystick
+from .telemetry import DATA_STREAM_PARAMS, EARTH_RADIUS_M, STREAM_GROUPS, STREAMED, home_location
 from .wire import ID, RC_NEUTRAL, RC_RANGE, UINT16_MAX, clip_int, finite, is_integer_value, mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["FORCE_ARM_MAGIC", "MOTOR_TEST_TIMEOUT_S", "Dispatcher"]
 
@@ -39,12 +40,15 @@ class Dispatcher:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         The link whose firmware the handlers drive and on which they queue replies.
+    joystick : Joystick
+        The pilot's joystick (MANUAL_CONTROL's gain and buttons; RC overrides restart its failsafe).
     """
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort, joystick: Joystick):
         self.link = link
+        self.joystick = joystick
         self.fw = link.fw
         self.messages: dict[int, Callable[[int, object], None]] = {
             ID["HEARTBEAT"]: self.on_heartbeat,
@@ -55,6 +59,7 @@ class Dispatcher:
             ID["COMMAND_LONG"]: self.on_command_long,
             ID["COMMAND_INT"]: self.on_command_int,
             ID["SET_POSITION_TARGET_LOCAL_NED"]: self.on_position_target,
+            ID["SET_POSITION_TARGET_GLOBAL_INT"]: self.on_position_target_global,
             ID["TIMESYNC"]: self.on_timesync,
             ID["AUTOPILOT_VERSION_REQUEST"]: self.on_autopilot_version_request,
         }
@@ -77,29 +82,32 @@ class Dispatcher:
 
     # ------------------------------------------------------------------ messages
     def _from_gcs(self, msg) -> bool:
-        return msg.get_srcSystem() == int(self.fw.params["SYSID_MYGCS"])
+        return msg.get_srcSystem() == int(self.fw.params["MAV_GCS_SYSID"])
 
     def on_heartbeat(self, ep: int, msg) -> None:
-        """A heartbeat from SYSID_MYGCS keeps the GCS failsafe away."""
+        """A heartbeat from MAV_GCS_SYSID keeps the GCS failsafe away."""
         if self._from_gcs(msg):
             self.fw.gcs_heartbeat()
 
     def set_mode(self, base_mode: float, custom_mode: float) -> int:
-        """Switch to ArduSub mode ``custom_mode``; base_mode must carry CUSTOM_MODE_ENABLED."""
+        """Switch to ArduSub mode ``custom_mode``; base_mode must carry CUSTOM_MODE_ENABLED (else DENIED, as
+        ArduSub)."""
         if not finite(base_mode, custom_mode):
             return MAV_RESULT.FAILED
         if not int(base_mode) & mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            return MAV_RESULT.UNSUPPORTED
+            return MAV_RESULT.DENIED
         if custom_mode != int(custom_mode) or not 0 <= custom_mode < 2**32:
             return MAV_RESULT.FAILED
         return self.fw.request_mode(int(custom_mode))
 
     def on_set_mode(self, ep: int, msg) -> None:
-        """SET_MODE, acked as ArduPilot does: a COMMAND_ACK whose command is the message id (11)."""
-        self.link.ack(ep, msg, ID["SET_MODE"], self.set_mode(msg.base_mode, msg.custom_mode))
+        """SET_MODE: no COMMAND_ACK (ArduSub 4.7 sends none: a refusal is said in a STATUSTEXT, a change shows
+        in the heartbeat)."""
+        if self.set_mode(msg.base_mode, msg.custom_mode) != MAV_RESULT.ACCEPTED:
+            self.link.ignored()
 
     def on_request_data_stream(self, ep: int, msg) -> None:
-        """REQUEST_DATA_STREAM sets the group's SR0_ rate (Hz) and resets its messages' own intervals."""
+        """REQUEST_DATA_STREAM sets the group's MAV1_ rate (Hz) and resets its messages' own intervals."""
         if msg.start_stop == 0:
             rate = 0.0
         elif msg.start_stop == 1:
@@ -124,7 +132,7 @@ class Dispatcher:
         if not self._from_gcs(msg):        # ArduSub takes sticks from its own GCS only
             return self.link.ignored()
         rc = self.link.state.rc
-        x, up, pitch = self.link.joystick.manual_control(msg)     # buttons, pilot gain (ArduSub's joystick)
+        x, up, pitch = self.joystick.manual_control(msg)     # buttons, pilot gain (ArduSub's joystick)
         rc[0], rc[2], rc[4] = _stick(pitch), _stick(up), _stick(x)
         self.fw.pilot_input(x, up, pitch)
         self.fw.gcs_heartbeat()            # ArduSub: pilot input counts as the GCS being there
@@ -148,7 +156,7 @@ class Dispatcher:
             elif v not in (0, UINT16_MAX):
                 self.fw.rc_override_aux(ch, int(v))
         norm = lambda ch: (rc[ch] - RC_NEUTRAL) / RC_RANGE   # noqa: E731
-        self.link.joystick.touched()
+        self.joystick.touched()
         self.fw.pilot_input(norm(4), norm(2), norm(0))
         self.fw.gcs_heartbeat()
 
@@ -170,6 +178,25 @@ class Dispatcher:
         if x is None and depth is None:     # velocity / acceleration / yaw only: not supported
             return self.link.ignored()
         if fw.set_target(x, depth, None) != MAV_RESULT.ACCEPTED:
+            self.link.ignored()
+
+    def on_position_target_global(self, ep: int, msg) -> None:
+        """SET_POSITION_TARGET_GLOBAL_INT (GUIDED only): x from the latitude (degE7), depth = −altitude (m, AMSL:
+        the sea surface is 0; or relative to home); longitude is not a DoF here."""
+        frames = (mavlink.MAV_FRAME_GLOBAL_INT, mavlink.MAV_FRAME_GLOBAL, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                  mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT)
+        snap = self.link.snapshot
+        if self.fw.mode != Mode.GUIDED or msg.coordinate_frame not in frames or snap is None:
+            return self.link.ignored()
+        mask = msg.type_mask
+        lat, alt = msg.lat_int * 1e-7, float(msg.alt)
+        if msg.coordinate_frame in frames[2:]:
+            alt += home_location(snap, self.link.state)[2]
+        x = None if mask & mavlink.POSITION_TARGET_TYPEMASK_X_IGNORE else \
+            math.radians(lat - snap.origin_lat) * EARTH_RADIUS_M
+        depth = None if mask & mavlink.POSITION_TARGET_TYPEMASK_Z_IGNORE else -alt
+        if not -90.0 <= lat <= 90.0 or (x is None and depth is None) or \
+                self.fw.set_target(x, depth, None) != MAV_RESULT.ACCEPTED:
             self.link.ignored()
 
     def on_timesync(self, ep: int, msg) -> None:
@@ -236,6 +263,10 @@ class Dispatcher:
         timeout = timeout if 0.0 < timeout < MOTOR_TEST_TIMEOUT_S else MOTOR_TEST_TIMEOUT_S
         if not -2**31 <= motor < 2**31:
             return MAV_RESULT.FAILED
+        if not self.fw.armed:               # ArduSub's words, and its FAILED
+            self.link.statustext(MAV_SEVERITY.WARNING, "Arm motors before testing motors.", ep)
+            self.link.statustext(MAV_SEVERITY.WARNING, "motor test initialization failed!", ep)
+            return MAV_RESULT.FAILED
         return self.fw.motor_test(int(motor), pwm, timeout)
 
     def cmd_set_message_interval(self, ep: int, msg, p: Params7) -> int:
@@ -291,8 +322,9 @@ class Dispatcher:
         return MAV_RESULT.ACCEPTED
 
     def cmd_banner(self, ep: int, msg, p: Params7) -> int:
-        """MAV_CMD_DO_SEND_BANNER: the firmware's name and version in a STATUSTEXT."""
-        self.link.statustext(MAV_SEVERITY.INFO, BANNER, ep)
+        """MAV_CMD_DO_SEND_BANNER: ArduSub's banner, firmware and commit, board id, frame (STATUSTEXT × 3)."""
+        for line in banner(int(self.fw.params["MAV_SYSID"])):
+            self.link.statustext(MAV_SEVERITY.INFO, line, ep)
         return MAV_RESULT.ACCEPTED
 
     def cmd_get_home_position(self, ep: int, msg, p: Params7) -> int:

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from .wire import mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["ERR", "OP", "FtpResponder"]
 
@@ -44,11 +44,11 @@ class FtpResponder:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         Where replies are queued.
     """
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort):
         self.link = link
         link.counters.setdefault("ftp_requests", 0)
         self.messages = {mavlink.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self.on_request}

@@ -24,6 +24,7 @@ What goes on the wire, and where it differs from ArduSub, is in ``docs/mavlink.m
 from __future__ import annotations
 
 import contextlib
+import math
 import select
 import socket
 import threading
@@ -36,14 +37,17 @@ from ..telemetry_snapshot import TelemetrySnapshot
 from .battery import BatterySim
 from .commands import Dispatcher
 from .ftp import FtpResponder
+from .identity import custom_version
 from .lockstep import CompanionLockstep
 from .missions import MissionProtocol
 from .param_protocol import ParamProtocol
 from .pilot import Joystick
-from .telemetry import BUILDERS, HEARTBEAT_INTERVAL_NS, MSG_GROUP, STREAMED, Builder, LinkState
-from .telemetry_extra import EXTRA_BUILDERS, VibrationMonitor
+from .streams import Streams
+from .telemetry import BUILDERS, EARTH_RADIUS_M, Builder, LinkState
+from .telemetry_extra import EXTRA_BUILDERS
 from .transports import Transport, make_transport
 from .vehicle_commands import VehicleCommands
+from .vibration import VibrationMonitor
 from .wire import COMPONENT_ID, ID, SIGNING_EPOCH_S, UINT16_MAX, clip_int, mavlink
 
 __all__ = ["MavlinkLink"]
@@ -106,18 +110,16 @@ class MavlinkLink:
         # update-thread state
         self.state = LinkState(sysid=self.sysid, counters=self.counters)
         self.snapshot: TelemetrySnapshot | None = None
-        self._overrides: dict[int, int] = {}          # msg id → interval ns, or -1: disabled
-        self._schedule: tuple[tuple[int, int | None], ...] = ()
-        self._schedule_key: tuple | None = None
-        self._next_due: dict[int, int] = {}
-        self._interval: dict[int, int | None] = {}
+        self.streams = Streams(firmware.params)
         self.after: list = []                         # messages a command asked for, sent after its ACK
+        self._ready = False                           # "ArduPilot Ready" said
+        self._armed = False
         self.builders: dict[int, Builder] = {**BUILDERS, **EXTRA_BUILDERS}
         self.battery = BatterySim(firmware.params)
         self.state.vibration = VibrationMonitor()
         self.joystick = Joystick(self)
-        self.vehicle_commands = VehicleCommands(self)
-        self.dispatcher = Dispatcher(self)
+        self.vehicle_commands = VehicleCommands(self, self.joystick)
+        self.dispatcher = Dispatcher(self, self.joystick)
         self.dispatcher.commands.update(self.vehicle_commands.commands)
         self.param_protocol = ParamProtocol(self)
         self.missions = MissionProtocol(self)
@@ -125,6 +127,7 @@ class MavlinkLink:
         self._handlers: dict[int, Callable] = {**self.dispatcher.messages, **self.param_protocol.messages,
                                                **self.missions.messages, **self.ftp.messages}
         self.lockstep = CompanionLockstep(self) if lockstep else None   # SITL: wait for a companion each tick
+        custom_version()                  # asks git once, now: never inside the 20 Hz tick
         self._open_endpoints()
 
     def _open_endpoints(self) -> None:
@@ -152,8 +155,8 @@ class MavlinkLink:
 
     @property
     def sysid(self) -> int:
-        """This vehicle's MAVLink system id (SYSID_THISMAV)."""
-        return int(self.fw.params["SYSID_THISMAV"])
+        """This vehicle's MAVLink system id (MAV_SYSID)."""
+        return int(self.fw.params["MAV_SYSID"])
 
     def start(self) -> MavlinkLink:
         """Start the I/O thread (once)."""
@@ -166,7 +169,7 @@ class MavlinkLink:
     def stop(self, timeout: float = 2.0) -> None:
         """Stop the I/O thread (after it sends what is queued) and close every socket. Idempotent."""
         self._stop.set()
-        self._wake()
+        self.wake()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
         for ep in self.endpoints:
@@ -196,8 +199,7 @@ class MavlinkLink:
 
     def restart_streams(self, now_ns: int) -> None:
         """Start every stream's schedule afresh at ``now_ns`` (after the firmware's clock was rebased)."""
-        for mid in list(self._next_due):
-            self._next_due[mid] = int(now_ns)
+        self.streams.restart(now_ns)
         self.state.now_ns = int(now_ns)
 
     # ------------------------------------------------------------------ for the handlers (scheduler thread)
@@ -228,23 +230,11 @@ class MavlinkLink:
 
     def set_interval(self, mid: int, interval_ns: int | None) -> None:
         """A message's own interval (ns), −1 to turn it off, None to go back to its group's rate."""
-        if interval_ns is None:
-            self._overrides.pop(mid, None)
-        else:
-            self._overrides[mid] = int(interval_ns)
+        self.streams.set_interval(mid, interval_ns)
 
     def stream_interval(self, mid: int) -> int | None:
         """ns between two sends of a streamed message, or None when it is off."""
-        ov = self._overrides.get(mid)
-        if ov is not None:
-            return None if ov < 0 else ov
-        if mid == ID["HEARTBEAT"]:
-            return HEARTBEAT_INTERVAL_NS
-        group = MSG_GROUP.get(mid)
-        if group is None:                  # sent on request, or at a SET_MESSAGE_INTERVAL rate
-            return None
-        rate = self.fw.params[group]
-        return int(1e9 / rate) if rate > 0 else None
+        return self.streams.interval(mid)
 
     # ------------------------------------------------------------------ update
     def _update(self, slot_ns: int) -> None:
@@ -262,7 +252,7 @@ class MavlinkLink:
             self._drain()                  # the companion's commands for the next control tick
             self._send_events()
         if self._outbox:
-            self._wake()
+            self.wake()
 
     def _drain(self) -> None:
         """Handle inbox messages, at most ``max_per_update`` and about ``budget_s``."""
@@ -283,19 +273,38 @@ class MavlinkLink:
                 self._send_events()
 
     def _vehicle_state(self, snap: TelemetrySnapshot) -> None:
-        """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples."""
+        """What the link tracks from tick to tick: battery, vibration, clock epoch, pilot input, depth samples,
+        the boot's "ArduPilot Ready" and home on arming."""
         st = self.state
+        if snap.has_tick and not self._ready:
+            self._ready = True
+            self.statustext(MAV_SEVERITY.INFO, "ArduPilot Ready")     # ArduSub's word that it has booted
+        if snap.armed and not self._armed:
+            self._home_on_arming(snap)
+        self._armed = snap.armed
         if snap.t is not None:
             if st.epoch_us is None:
                 st.epoch_us = int(time.time() * 1e6 - snap.t * 1e6)
             if st.vibration is not None:
                 st.vibration.update(snap)
+            if math.isfinite(snap.measured_x):
+                st.fix = (snap.t, snap.measured_x)
             self.vehicle_commands.sample(snap.measured_depth)
         st.battery = self.battery.update(snap.t, snap.thrust if snap.armed else ())
-        st.ekf_thresh = float(self.fw.params["FS_EKF_THRESH"])
+        st.ekf_sd_bad = float(self.fw.params["WK_EKF_SD_BAD"])
         self.joystick.update(snap.t)
 
-    def _wake(self) -> None:
+    def _home_on_arming(self, snap: TelemetrySnapshot) -> None:
+        """As ArduSub: arming moves home to where the vehicle is (with a position estimate), and GPS_GLOBAL_ORIGIN
+        and HOME_POSITION go to every ground station."""
+        if snap.has_tick and snap.ekf_converged and all(map(math.isfinite, snap.x_hat[:2])):
+            self.state.home = (snap.origin_lat + math.degrees(snap.x_hat[0] / EARTH_RADIUS_M), snap.origin_lon,
+                               -snap.x_hat[1])
+        for mid in (ID["GPS_GLOBAL_ORIGIN"], ID["HOME_POSITION"]):
+            for m in self.build(mid):
+                self.queue(m)
+
+    def wake(self) -> None:
         with contextlib.suppress(OSError):   # full (already awake) or closed
             self._wake_w.send(b"\0")
 
@@ -308,30 +317,10 @@ class MavlinkLink:
                 return
             self.statustext(severity, text)
 
-    def _stream_schedule(self) -> tuple[tuple[int, int | None], ...]:
-        """(message id, interval ns or None) of every scheduled message, in send order.
-
-        Rebuilt only when a parameter or a message's own interval changed (the SR0_* rates
-        and overrides change rarely; reading ~24 of them from the table every tick cost more
-        than the sends), so a change still takes effect on the next tick.
-        """
-        params = self.fw.params
-        key = (id(params), params.version, tuple(self._overrides.items()))   # overrides: usually none
-        if key != self._schedule_key:
-            extra = tuple(mid for mid in self._overrides if mid not in MSG_GROUP and mid != ID["HEARTBEAT"])
-            self._schedule = tuple((mid, self.stream_interval(mid)) for mid in STREAMED + extra)
-            self._schedule_key = key
-        return self._schedule
-
     def _send_streams(self, now: int) -> None:
-        for mid, interval in self._stream_schedule():
-            if interval != self._interval.get(mid):
-                self._interval[mid] = interval
-                self._next_due[mid] = now
-            if interval is None or now < self._next_due[mid]:
-                continue
-            due = self._next_due[mid] + interval
-            self._next_due[mid] = due if due > now else now + interval
+        if self.streams.timesync_due(now):          # ArduPilot asks its ground stations to time-sync every 10 s
+            self.queue(mavlink.MAVLink_timesync_message(0, max(1, now)))
+        for mid in self.streams.due(now):
             try:
                 msgs = self.build(mid)
             except Exception as exc:       # one bad value must not silence the other streams

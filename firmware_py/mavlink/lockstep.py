@@ -27,7 +27,7 @@ from ..modes import MAV_SEVERITY
 from .wire import mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["MARKER", "CompanionLockstep"]
 
@@ -37,7 +37,7 @@ MARKER = b"LOCKSTEP"
 class CompanionLockstep:
     """The vehicle's half of the lockstep (the link's update calls :meth:`after_streams`)."""
 
-    def __init__(self, link: MavlinkLink, timeout_s: float = 1.0, max_misses: int = 3):
+    def __init__(self, link: LinkPort, timeout_s: float = 1.0, max_misses: int = 3):
         self.link = link
         self.timeout_s = float(timeout_s)
         self.max_misses = int(max_misses)
@@ -67,7 +67,7 @@ class CompanionLockstep:
             return False
         self._last_sent_ms = ms
         self.link.queue(mavlink.MAVLink_named_value_int_message(ms, MARKER, ms))
-        self.link._wake()
+        self.link.wake()
         with self._cond:
             answered = self._cond.wait_for(lambda: self._acked_ms >= ms, 0.0 if self.lost else self.timeout_s)
         if answered:

@@ -34,7 +34,7 @@ from ..modes import MAV_RESULT, MAV_SEVERITY
 from .wire import finite, mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["MAX_ITEMS", "REQUEST_RESEND_S", "UPLOAD_TIMEOUT_S", "MissionItem", "MissionProtocol"]
 
@@ -100,11 +100,11 @@ class MissionProtocol:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         Where replies are queued and whose firmware takes guided targets.
     """
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort):
         self.link = link
         self.items: list[MissionItem] = []        # seq 1…; seq 0 (home) is built from the origin
         self.current = 0

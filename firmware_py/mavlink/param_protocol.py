@@ -21,17 +21,18 @@ from typing import TYPE_CHECKING
 
 from ..modes import MAV_SEVERITY
 from ..params import INT_TYPE_RANGES, ParamDef
-from .wire import ID, WAVEKEEP_VERSION, mavlink, tidy_float32
+from .identity import banner
+from .wire import ID, mavlink, tidy_float32
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
-__all__ = ["BANNER", "MAV_PARAM_TYPES", "ParamProtocol", "wire_to_value"]
+__all__ = ["MAV_PARAM_TYPES", "ParamProtocol", "wire_to_value"]
 
 MAV_PARAM_TYPES = {name: getattr(mavlink, f"MAV_PARAM_TYPE_{name}") for name in ("REAL32", "INT8", "INT16", "INT32")}
 """Parameter storage type (:attr:`firmware_py.params.ParamDef.ptype`) → MAV_PARAM_TYPE."""
+UNLISTED = 65535         # PARAM_VALUE.param_index of an answer to PARAM_SET (ArduPilot sends it so)
 INT_ROUNDING = 0.01      # AP_Param::set_float adds this (towards the value's sign) before truncating
-BANNER = "Wavekeep V{}.{}.{} (ArduSub-compatible)".format(*WAVEKEEP_VERSION)
 
 
 def wire_to_value(d: ParamDef, value: float) -> float:
@@ -64,13 +65,13 @@ class ParamProtocol:
 
     Parameters
     ----------
-    link : MavlinkLink
+    link : LinkPort
         Where replies are queued and refusals counted.
     """
 
-    PER_UPDATE = 20
+    PER_UPDATE = 40
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort):
         self.link = link
         self._cursor: dict[int, int] = {}       # endpoint → next index of a PARAM_REQUEST_LIST
         self.messages: dict[int, Callable[[int, object], None]] = {
@@ -84,12 +85,14 @@ class ParamProtocol:
     def params(self):
         return self.link.fw.params
 
-    def value_message(self, index: int) -> mavlink.MAVLink_param_value_message:
-        """PARAM_VALUE of the parameter at ``index``."""
+    def value_message(self, index: int, echo: bool = False) -> mavlink.MAVLink_param_value_message:
+        """PARAM_VALUE of the parameter at ``index``; ``echo``: the answer to a PARAM_SET, whose index is
+        65535 (ArduPilot's: "not from a list")."""
         params = self.params
         name, value = params.by_index(index)
         ptype = MAV_PARAM_TYPES[params.definition(name).ptype]
-        return mavlink.MAVLink_param_value_message(name.encode("ascii"), float(value), ptype, len(params), index)
+        return mavlink.MAVLink_param_value_message(name.encode("ascii"), float(value), ptype, len(params),
+                                                   UNLISTED if echo else index)
 
     def send_batches(self) -> None:
         """Queue the next :attr:`PER_UPDATE` values of every PARAM_REQUEST_LIST in progress."""
@@ -107,7 +110,8 @@ class ParamProtocol:
 
     def on_request_list(self, ep: int, msg) -> None:
         """PARAM_REQUEST_LIST: the banner (as ArduPilot sends it), then every value over the next updates."""
-        self.link.statustext(MAV_SEVERITY.INFO, BANNER, ep)
+        for line in banner(int(self.params["MAV_SYSID"])):
+            self.link.statustext(MAV_SEVERITY.INFO, line, ep)
         self._cursor[ep] = 0
 
     def on_request_read(self, ep: int, msg) -> None:
@@ -131,9 +135,9 @@ class ParamProtocol:
             return self.link.ignored()
         if params.definition(name).readonly:          # ArduPilot: the text, then the value in force
             self.link.statustext(MAV_SEVERITY.WARNING, f"Param write denied ({name})")
-            self.link.queue(self.value_message(params.index_of(name)))
+            self.link.queue(self.value_message(params.index_of(name), echo=True))
             return None
         why = params.set(name, wire_to_value(params.definition(name), msg.param_value))
         if why:
             self.link.fw.say(MAV_SEVERITY.WARNING, f"{name} not set: {why}")
-        self.link.queue(self.value_message(params.index_of(name)))
+        self.link.queue(self.value_message(params.index_of(name), echo=True))

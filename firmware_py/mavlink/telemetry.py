@@ -6,7 +6,7 @@ counters, scheduler statistics, RC channels). It returns an empty list when it
 has nothing to report yet (before the first control tick), and never raises on
 odd values: NaN, inf and out-of-range numbers are clipped into the field.
 
-:data:`STREAM_GROUPS` says which ``SR0_*`` parameter paces which message,
+:data:`STREAM_GROUPS` says which ``MAV1_*`` parameter paces which message,
 as ArduPilot's stream groups do.
 """
 from __future__ import annotations
@@ -20,15 +20,15 @@ from typing import TYPE_CHECKING, cast
 from ..modes import AUTO_AXES, GUIDED_GROUP
 from ..sensors import depth_to_pressure
 from ..telemetry_snapshot import TelemetrySnapshot
-from .wire import FLIGHT_SW_VERSION, ID, INT16_MAX, RC_NEUTRAL, UINT16_MAX, clip_int, mavlink
+from .identity import CAPABILITIES, FLIGHT_SW_VERSION, board_id, custom_version
+from .wire import ID, INT16_MAX, RC_NEUTRAL, UINT16_MAX, clip_int, mavlink
 
 if TYPE_CHECKING:
     from .battery import BatteryState
-    from .telemetry_extra import VibrationMonitor
+    from .vibration import VibrationMonitor
 
 __all__ = [
     "BUILDERS",
-    "CAPABILITIES",
     "DATA_STREAM_PARAMS",
     "HEARTBEAT_INTERVAL_NS",
     "MSG_GROUP",
@@ -39,53 +39,49 @@ __all__ = [
     "autopilot_version",
 ]
 
-CAPABILITIES = (mavlink.MAV_PROTOCOL_CAPABILITY_MAVLINK2 | mavlink.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
-                | mavlink.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                | mavlink.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
-                | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_INT | mavlink.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
-"""What AUTOPILOT_VERSION claims: only what this link implements."""
-
 BASE_MODE_ALWAYS = (mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | mavlink.MAV_MODE_FLAG_STABILIZE_ENABLED
                     | mavlink.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED)
 
 _S = mavlink
-SENSORS_PRESENT = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-                   | _S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE | _S.MAV_SYS_STATUS_SENSOR_VISION_POSITION
-                   | _S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | _S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-                   | _S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL | _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-                   | _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | _S.MAV_SYS_STATUS_AHRS)
-"""MAV_SYS_STATUS_SENSOR bits this vehicle has."""
-_SENSOR_BITS = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D_ACCEL
-                | _S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE)
-_CONTROL_BITS = (_S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION | _S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
-                 | _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL | _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS)
+_SENSORS = (_S.MAV_SYS_STATUS_SENSOR_3D_GYRO | _S.MAV_SYS_STATUS_SENSOR_3D_ACCEL | _S.MAV_SYS_STATUS_SENSOR_3D_MAG
+            | _S.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE)
+_ATTITUDE = (_S.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL | _S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+             | _S.MAV_SYS_STATUS_SENSOR_YAW_POSITION | _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS)
+_Z, _XY = _S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL, _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+SENSORS_PRESENT = (_SENSORS | _S.MAV_SYS_STATUS_SENSOR_GPS | _ATTITUDE | _Z | _XY | _S.MAV_SYS_STATUS_GEOFENCE
+                   | _S.MAV_SYS_STATUS_AHRS | _S.MAV_SYS_STATUS_SENSOR_BATTERY | _S.MAV_SYS_STATUS_PREARM_CHECK)
+"""MAV_SYS_STATUS_SENSOR bits this vehicle has, as ArduSub reports them for a BlueROV2: IMU, compass, pressure,
+the position fix (an acoustic positioning system reaches ArduSub as a GPS), the controllers and motor outputs,
+a fence (never enabled), the AHRS, the battery monitor and the pre-arm checks; the RC receiver once a pilot
+has been heard (the joystick's RC overrides)."""
+_FIX_FRESH_S = 1.0                   # s: a position fix newer than this makes GPS_RAW_INT a 3D fix
 
 WATER_TEMPERATURE_CDEG = 1000        # SCALED_PRESSURE2.temperature: nominal 10 °C (no temperature sensor)
 EARTH_RADIUS_M = 6378137.0
 HEARTBEAT_INTERVAL_NS = 1_000_000_000
 
 STREAM_GROUPS: dict[str, tuple[int, ...]] = {
-    "SR0_RAW_SENS": (ID["RAW_IMU"], ID["SCALED_PRESSURE"], ID["SCALED_PRESSURE2"]),
-    "SR0_EXT_STAT": (ID["SYS_STATUS"], ID["POWER_STATUS"], ID["MEMINFO"], ID["MISSION_CURRENT"], ID["GPS_RAW_INT"],
+    "MAV1_RAW_SENS": (ID["RAW_IMU"], ID["SCALED_PRESSURE"], ID["SCALED_PRESSURE2"]),
+    "MAV1_EXT_STAT": (ID["SYS_STATUS"], ID["POWER_STATUS"], ID["MEMINFO"], ID["MISSION_CURRENT"], ID["GPS_RAW_INT"],
                      ID["NAV_CONTROLLER_OUTPUT"], ID["NAMED_VALUE_FLOAT"]),
-    "SR0_RC_CHAN": (ID["SERVO_OUTPUT_RAW"], ID["RC_CHANNELS"]),
-    "SR0_POSITION": (ID["GLOBAL_POSITION_INT"], ID["LOCAL_POSITION_NED"]),
-    "SR0_EXTRA1": (ID["ATTITUDE"], ID["AHRS2"]),
-    "SR0_EXTRA2": (ID["VFR_HUD"],),
-    "SR0_EXTRA3": (ID["SYSTEM_TIME"], ID["BATTERY_STATUS"], ID["EKF_STATUS_REPORT"], ID["VIBRATION"]),
+    "MAV1_RC_CHAN": (ID["SERVO_OUTPUT_RAW"], ID["RC_CHANNELS"]),
+    "MAV1_POSITION": (ID["GLOBAL_POSITION_INT"], ID["LOCAL_POSITION_NED"]),
+    "MAV1_EXTRA1": (ID["ATTITUDE"], ID["AHRS2"]),
+    "MAV1_EXTRA2": (ID["VFR_HUD"],),
+    "MAV1_EXTRA3": (ID["SYSTEM_TIME"], ID["BATTERY_STATUS"], ID["EKF_STATUS_REPORT"], ID["VIBRATION"]),
 }
-"""Stream-rate parameter (Hz) → the messages it paces (ArduPilot's SR0_* groups)."""
+"""Stream-rate parameter (Hz) → the messages it paces (ArduPilot's MAV1_* groups)."""
 
 DATA_STREAM_PARAMS = {
-    mavlink.MAV_DATA_STREAM_RAW_SENSORS: "SR0_RAW_SENS",
-    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: "SR0_EXT_STAT",
-    mavlink.MAV_DATA_STREAM_RC_CHANNELS: "SR0_RC_CHAN",
-    mavlink.MAV_DATA_STREAM_POSITION: "SR0_POSITION",
-    mavlink.MAV_DATA_STREAM_EXTRA1: "SR0_EXTRA1",
-    mavlink.MAV_DATA_STREAM_EXTRA2: "SR0_EXTRA2",
-    mavlink.MAV_DATA_STREAM_EXTRA3: "SR0_EXTRA3",
+    mavlink.MAV_DATA_STREAM_RAW_SENSORS: "MAV1_RAW_SENS",
+    mavlink.MAV_DATA_STREAM_EXTENDED_STATUS: "MAV1_EXT_STAT",
+    mavlink.MAV_DATA_STREAM_RC_CHANNELS: "MAV1_RC_CHAN",
+    mavlink.MAV_DATA_STREAM_POSITION: "MAV1_POSITION",
+    mavlink.MAV_DATA_STREAM_EXTRA1: "MAV1_EXTRA1",
+    mavlink.MAV_DATA_STREAM_EXTRA2: "MAV1_EXTRA2",
+    mavlink.MAV_DATA_STREAM_EXTRA3: "MAV1_EXTRA3",
 }
-"""REQUEST_DATA_STREAM's req_stream_id → the SR0_ parameter it sets (MAV_DATA_STREAM_ALL sets them all)."""
+"""REQUEST_DATA_STREAM's req_stream_id → the MAV1_ parameter it sets (MAV_DATA_STREAM_ALL sets them all)."""
 
 MSG_GROUP = {mid: group for group, ids in STREAM_GROUPS.items() for mid in ids}
 STREAMED = (ID["HEARTBEAT"], *tuple(MSG_GROUP))
@@ -107,16 +103,24 @@ class LinkState:
     sched_stats : dict or None
         The firmware scheduler's statistics (load, overruns, control-task timing).
     rc : list of int
-        RC channels 1–11 as the pilot last set them (µs), ArduSub's channel order: 1 pitch, 2 roll,
-        3 throttle, 4 yaw, 5 forward, 6 lateral, 7, 8 camera tilt, 9 lights 1, 10 lights 2, 11 video switch.
+        RC channels 1–8 as the pilot last set them (µs), ArduSub's channel order: 1 pitch, 2 roll,
+        3 throttle, 4 yaw, 5 forward, 6 lateral, 7, 8.
+    rc_in : dict
+        RC inputs 9–16 an RC_CHANNELS_OVERRIDE holds now: channel → µs.
     servo : list of int
-        Outputs 9–16 (µs; 0 never set): DO_SET_SERVO and the SERVOn_FUNCTION pass-throughs.
+        Outputs 9–16 (µs; 0 never set): the accessories, DO_SET_SERVO and the pass-throughs (:mod:`.accessories`).
+    sub_info : tuple
+        ArduSub's Sub-panel NAMED_VALUE_FLOATs, (name, value) in its order.
+    pilot_seen, pilot_fresh : bool
+        A joystick or RC override has been heard; and within FS_PILOT_TIMEOUT (SYS_STATUS's RC receiver).
+    fix : tuple of float or None
+        The last position fix: (vehicle time s, x m north).
     battery : BatteryState or None
         The simulated battery's last reading.
     vibration : VibrationMonitor or None
         Body acceleration and vibration levels (RAW_IMU, VIBRATION).
-    ekf_thresh : float
-        FS_EKF_THRESH (m): EKF_STATUS_REPORT's test ratios are 1-sigma over it.
+    ekf_sd_bad : float
+        WK_EKF_SD_BAD (m): EKF_STATUS_REPORT's test ratios are the position 1-sigma over it.
     epoch_us : int or None
         Unix time (µs) at vehicle time 0: SYSTEM_TIME's clock is this plus the vehicle time.
     mission_seq, mission_total : int
@@ -130,11 +134,16 @@ class LinkState:
     sysid: int = 1
     counters: Mapping[str, int] = field(default_factory=dict)
     sched_stats: dict | None = None
-    rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8 + [1100, 1100, 1100])
+    rc: list[int] = field(default_factory=lambda: [RC_NEUTRAL] * 8)
+    rc_in: dict[int, int] = field(default_factory=dict)
     servo: list[int] = field(default_factory=lambda: [0] * 8)
+    sub_info: tuple[tuple[str, float], ...] = ()
+    pilot_seen: bool = False
+    pilot_fresh: bool = False
+    fix: tuple[float, float] | None = None
     battery: BatteryState | None = None
     vibration: VibrationMonitor | None = None
-    ekf_thresh: float = 2.0
+    ekf_sd_bad: float = 2.5
     epoch_us: int | None = None
     mission_seq: int = 0
     mission_total: int = 1
@@ -168,25 +177,30 @@ def heartbeat(snap: TelemetrySnapshot, link: LinkState) -> list:
                                               base, snap.mode, snap.system_status, 3)]
 
 
-def _sensor_bits(snap: TelemetrySnapshot) -> tuple[int, int]:
-    """(enabled, health) MAV_SYS_STATUS_SENSOR bit fields."""
-    enabled = SENSORS_PRESENT & ~_CONTROL_BITS
+def _sensor_bits(snap: TelemetrySnapshot, link: LinkState) -> tuple[int, int, int]:
+    """(present, enabled, health) MAV_SYS_STATUS_SENSOR bit fields, as ArduSub sets them."""
+    present = SENSORS_PRESENT
+    enabled = _SENSORS | _S.MAV_SYS_STATUS_SENSOR_GPS | _ATTITUDE | _S.MAV_SYS_STATUS_AHRS
+    health = _ATTITUDE | _S.MAV_SYS_STATUS_GEOFENCE
     axes = cast("dict[int, tuple[bool, bool, bool]]", AUTO_AXES)
-    surge, heave, pitch = axes.get(snap.mode, (False, False, False))
-    if pitch:
-        enabled |= _S.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
-    if heave:
-        enabled |= _S.MAV_SYS_STATUS_SENSOR_Z_ALTITUDE_CONTROL
-    if surge:
-        enabled |= _S.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
-    if snap.armed:
-        enabled |= _S.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
-    health = SENSORS_PRESENT
-    if not snap.sensors_healthy:
-        health &= ~_SENSOR_BITS
-    if not snap.ekf_converged:
-        health &= ~(_S.MAV_SYS_STATUS_AHRS | _S.MAV_SYS_STATUS_SENSOR_VISION_POSITION)
-    return enabled, health
+    surge, heave, _pitch = axes.get(snap.mode, (False, False, False))
+    enabled |= (_Z if heave else 0) | (_XY if surge else 0)
+    health |= (_Z if heave else 0) | (_XY if surge else 0)
+    if snap.sensors_healthy:
+        health |= _SENSORS
+    if _fix_fresh(snap, link):
+        health |= _S.MAV_SYS_STATUS_SENSOR_GPS
+    if snap.ekf_converged:
+        health |= _S.MAV_SYS_STATUS_AHRS
+    if link.pilot_seen:
+        present |= _S.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+        enabled |= _S.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+        health |= _S.MAV_SYS_STATUS_SENSOR_RC_RECEIVER if link.pilot_fresh else 0
+    return present, enabled, health
+
+
+def _fix_fresh(snap: TelemetrySnapshot, link: LinkState) -> bool:
+    return link.fix is not None and snap.t is not None and snap.t - link.fix[0] <= _FIX_FRESH_S
 
 
 def _load_permille(st: dict) -> int:
@@ -203,20 +217,18 @@ def sys_status(snap: TelemetrySnapshot, link: LinkState) -> list:
     """SYS_STATUS: sensors, load (‰), link drop rate (c%) and error counters (scheduler overruns, skips)."""
     if not snap.has_tick:
         return []
-    enabled, health = _sensor_bits(snap)
+    present, enabled, health = _sensor_bits(snap, link)
     c = link.counters
     st = link.sched_stats or {}
     received = c["rx"] + c["rx_bad"]
     drop = clip_int(10000.0 * (c["rx_bad"] + c["inbox_dropped"]) / received, 0, 10000) if received else 0
     u16 = lambda v: clip_int(v, 0, UINT16_MAX)   # noqa: E731
-    present = SENSORS_PRESENT | _S.MAV_SYS_STATUS_PREARM_CHECK
     enabled |= _S.MAV_SYS_STATUS_PREARM_CHECK
     if snap.prearm_ok:
         health |= _S.MAV_SYS_STATUS_PREARM_CHECK
     b = link.battery
     volt_mv, current_ca, remaining = UINT16_MAX, -1, -1
     if b is not None:
-        present |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
         enabled |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
         health |= _S.MAV_SYS_STATUS_SENSOR_BATTERY
         volt_mv = clip_int(b.voltage * 1000.0, 0, UINT16_MAX - 1)
@@ -229,10 +241,11 @@ def sys_status(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def named_values(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """NAMED_VALUE_FLOAT × 7: forecast age (s), feed-forward on, predicted wave load (N, N m), loop timing.
+    """NAMED_VALUE_FLOAT: ArduSub's Sub-panel values (:mod:`.accessories`), then Wavekeep's own × 7.
 
-    TICK_P99 is the control task's compute p99 (ms); TICK_MISS the missed deadlines (overruns, plus
-    slots a paced SITL run fell behind), as ArduPilot reports its loop timing.
+    Wavekeep's: FF_AGE forecast age (s), FF_ON feed-forward on, FF_X/Z/M the predicted wave load (N, N m),
+    TICK_P99 the control task's compute p99 (ms), TICK_MISS the missed deadlines (overruns, plus slots a
+    paced SITL run fell behind), as ArduPilot reports its loop timing.
     """
     if not snap.has_tick:
         return []
@@ -244,7 +257,8 @@ def named_values(snap: TelemetrySnapshot, link: LinkState) -> list:
               (b"FF_X", tau[0]), (b"FF_Z", tau[1]), (b"FF_M", tau[2]), (b"TICK_P99", (p99 or 0.0) / 1e3),
               (b"TICK_MISS", float(st.get("overruns", 0) + snap.late_slots)))
     ms = time_boot_ms(snap, link)
-    return [mavlink.MAVLink_named_value_float_message(ms, name, float(v)) for name, v in values]
+    sub = [(name.encode(), v) for name, v in link.sub_info]
+    return [mavlink.MAVLink_named_value_float_message(ms, name, float(v)) for name, v in (*sub, *values)]
 
 
 def scaled_pressure2(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -259,12 +273,20 @@ def scaled_pressure2(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def gps_raw_int(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """GPS_RAW_INT as ArduPilot sends it without a GPS: fix_type 0 (NO_GPS), no position, DOPs unknown.
-
-    A submarine has no GPS under water; clients that wait for this message (dronekit) get it all the same.
-    """
-    return [mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_GPS, 0, 0, 0, UINT16_MAX, UINT16_MAX,
-                                                0, 0, 0)]
+    """GPS_RAW_INT of the position fix, as ArduSub reports an acoustic positioning system fed to it as a GPS:
+    a 3D fix at the fix's latitude (x north of the origin) and the origin's longitude, altitude −depth, while
+    fixes come (within 1 s); satellites and DOPs unknown. Without one: fix type 0, no position."""
+    if not _fix_fresh(snap, link) or not math.isfinite(snap.measured_depth):
+        return [mavlink.MAVLink_gps_raw_int_message(0, mavlink.GPS_FIX_TYPE_NO_GPS, 0, 0, 0, UINT16_MAX,
+                                                    UINT16_MAX, 0, 0, 0)]
+    assert link.fix is not None
+    t, x = link.fix
+    lat = snap.origin_lat + math.degrees(x / EARTH_RADIUS_M)
+    return [mavlink.MAVLink_gps_raw_int_message(
+        clip_int(t * 1e6, 0, 2**63), mavlink.GPS_FIX_TYPE_3D_FIX, clip_int(lat * 1e7, -900000000, 900000000),
+        clip_int(snap.origin_lon * 1e7, -1800000000, 1800000000), clip_int(-snap.measured_depth * 1000.0, -2**31,
+                                                                            2**31 - 1),
+        UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, 255)]
 
 
 def home_location(snap: TelemetrySnapshot, link: LinkState) -> tuple[float, float, float]:
@@ -273,13 +295,13 @@ def home_location(snap: TelemetrySnapshot, link: LinkState) -> tuple[float, floa
 
 
 def home_position(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """HOME_POSITION: home (degE7, mm) and its NED offset from the origin (m); q identity, no approach."""
+    """HOME_POSITION: home (degE7, mm) and its NED offset from the origin (m); q NaN (not known, as ArduSub)."""
     lat, lon, alt = home_location(snap, link)
     north = math.radians(lat - snap.origin_lat) * EARTH_RADIUS_M
     east = math.radians(lon - snap.origin_lon) * EARTH_RADIUS_M * math.cos(math.radians(snap.origin_lat))
     return [mavlink.MAVLink_home_position_message(
         clip_int(lat * 1e7, -900000000, 900000000), clip_int(lon * 1e7, -1800000000, 1800000000),
-        clip_int(alt * 1000.0, -2**31, 2**31 - 1), north, east, -alt, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
+        clip_int(alt * 1000.0, -2**31, 2**31 - 1), north, east, -alt, [math.nan] * 4, 0.0, 0.0, 0.0,
         clip_int((snap.t or 0.0) * 1e6, 0, 2**63))]
 
 
@@ -309,12 +331,12 @@ def servo_output_raw(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def rc_channels(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """RC_CHANNELS: the pilot's channels 1–11 (µs) as MANUAL_CONTROL / RC_CHANNELS_OVERRIDE set them."""
+    """RC_CHANNELS: the pilot's channels 1–8 (µs) and RC inputs 9–16 an override holds (0 otherwise)."""
     if not snap.has_tick:
         return []
-    rc = [clip_int(v, 0, UINT16_MAX) for v in link.rc[:18]]
-    return [mavlink.MAVLink_rc_channels_message(time_boot_ms(snap, link), len(rc), *rc,
-                                                *([UINT16_MAX] * (18 - len(rc))), 255)]
+    rc = [clip_int(v, 0, UINT16_MAX) for v in link.rc[:8]]
+    rc += [clip_int(link.rc_in.get(ch, 0), 0, UINT16_MAX) for ch in range(9, 17)]
+    return [mavlink.MAVLink_rc_channels_message(time_boot_ms(snap, link), len(rc), *rc, UINT16_MAX, UINT16_MAX, 255)]
 
 
 def global_position_int(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -368,9 +390,11 @@ def system_time(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def autopilot_version(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """AUTOPILOT_VERSION: capabilities (:data:`CAPABILITIES`) and the firmware version."""
+    """AUTOPILOT_VERSION: capabilities, the ArduSub release followed, Wavekeep's commit, the board id
+    (:mod:`.identity`)."""
     return [mavlink.MAVLink_autopilot_version_message(
-        CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, link.sysid)]
+        CAPABILITIES, FLIGHT_SW_VERSION, 0, 0, 0, list(custom_version()), [0] * 8, [0] * 8, 0, 0, 0,
+        list(board_id(link.sysid)))]
 
 
 BUILDERS: dict[int, Builder] = {

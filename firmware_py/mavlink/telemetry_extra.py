@@ -13,13 +13,13 @@ import os
 
 from ..telemetry_snapshot import TelemetrySnapshot
 from .telemetry import EARTH_RADIUS_M, Builder, LinkState, ned_state, time_boot_ms
+from .vibration import G_MSS
 from .wire import ID, INT16_MAX, UINT16_MAX, clip_int, mavlink
 
-__all__ = ["ENCLOSURE_PRESSURE_HPA", "EXTRA_BUILDERS", "VibrationMonitor"]
+__all__ = ["ENCLOSURE_PRESSURE_HPA", "EXTRA_BUILDERS"]
 
 ENCLOSURE_PRESSURE_HPA = 1013.25     # SCALED_PRESSURE: the autopilot's own barometer, in the sealed tube
 ENCLOSURE_TEMPERATURE_CDEG = 2500    # nominal 25 °C in the electronics tube
-G_MSS = 9.80665
 _EKF_GOOD = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VELOCITY_VERT
              | mavlink.EKF_POS_HORIZ_REL | mavlink.EKF_POS_HORIZ_ABS | mavlink.EKF_POS_VERT_ABS
              | mavlink.EKF_PRED_POS_HORIZ_REL | mavlink.EKF_PRED_POS_HORIZ_ABS)
@@ -27,43 +27,6 @@ _EKF_GOOD = (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_HORIZ | mavlink.EKF_VEL
 
 def _usec(snap: TelemetrySnapshot) -> int:
     return clip_int((snap.t or 0.0) * 1e6, 0, 2**63)
-
-
-class VibrationMonitor:
-    """ArduPilot's vibration levels: √(low-pass of (a − low-pass(a))²) of the body acceleration (m/s²).
-
-    The acceleration is the estimate's body-velocity change between ticks, plus gravity
-    resolved in the body frame (what an accelerometer measures).
-    """
-
-    def __init__(self, floor_hz: float = 5.0, level_hz: float = 2.0):
-        self._floor_hz, self._level_hz = floor_hz, level_hz
-        self._last: tuple[float, float, float] | None = None
-        self._floor = [0.0, 0.0]
-        self._sq = [0.0, 0.0]
-        self.accel = (0.0, 0.0, -G_MSS)
-
-    def update(self, snap: TelemetrySnapshot) -> tuple[float, float, float]:
-        """Feed one tick's estimate; returns the vibration levels (x, y, z), m/s²."""
-        if not snap.has_tick or len(snap.x_hat) < 6 or not all(map(math.isfinite, snap.x_hat[2:5])):
-            return self.levels()
-        t, th, u, w = float(snap.t or 0.0), snap.x_hat[2], snap.x_hat[3], snap.x_hat[4]
-        last, self._last = self._last, (t, u, w)
-        if last is None or not t > last[0]:
-            return self.levels()
-        dt = t - last[0]
-        ax = (u - last[1]) / dt + G_MSS * math.sin(th)
-        az = (w - last[2]) / dt - G_MSS * math.cos(th)
-        self.accel = (ax, 0.0, az)
-        a_floor = 1.0 - math.exp(-2 * math.pi * self._floor_hz * dt)
-        a_level = 1.0 - math.exp(-2 * math.pi * self._level_hz * dt)
-        for i, a in enumerate((ax, az)):
-            self._floor[i] += a_floor * (a - self._floor[i])
-            self._sq[i] += a_level * ((a - self._floor[i]) ** 2 - self._sq[i])
-        return self.levels()
-
-    def levels(self) -> tuple[float, float, float]:
-        return math.sqrt(max(self._sq[0], 0.0)), 0.0, math.sqrt(max(self._sq[1], 0.0))
 
 
 def raw_imu(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -140,12 +103,12 @@ def extended_sys_state(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def ekf_status_report(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """EKF_STATUS_REPORT: solution flags, and each 1-sigma over FS_EKF_THRESH as the test ratio (< 1 healthy)."""
+    """EKF_STATUS_REPORT: solution flags, and each 1-sigma over WK_EKF_SD_BAD as the test ratio (< 1 healthy)."""
     if not snap.has_tick or len(snap.sigma) < 2:
         return [mavlink.MAVLink_ekf_status_report_message(mavlink.EKF_UNINITIALIZED, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)]
     flags = _EKF_GOOD if snap.ekf_converged else (mavlink.EKF_ATTITUDE | mavlink.EKF_VELOCITY_VERT
                                                   | mavlink.EKF_POS_VERT_ABS)
-    thresh = max(float(link.ekf_thresh), 1e-6)
+    thresh = max(float(link.ekf_sd_bad), 1e-6)
     ratio = lambda s: min(max(s / thresh, 0.0), 100.0) if math.isfinite(s) else 100.0   # noqa: E731
     horiz, vert = ratio(snap.sigma[0]), ratio(snap.sigma[1])
     return [mavlink.MAVLink_ekf_status_report_message(flags, horiz, horiz, vert, 0.0, 0.0, 0.0)]

@@ -14,11 +14,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..modes import MAV_RESULT, MAV_SEVERITY, Mode
+from .pilot import Joystick
 from .telemetry import EARTH_RADIUS_M, home_location
 from .wire import finite, mavlink
 
 if TYPE_CHECKING:
-    from .link import MavlinkLink
+    from .port import LinkPort
 
 __all__ = ["BARO_SAMPLES", "VehicleCommands"]
 
@@ -31,8 +32,9 @@ _RELATIVE = (mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_FRAME_GLOBAL_REL
 class VehicleCommands:
     """DO_SET_SERVO, DO_REPOSITION, CONDITION_YAW and PREFLIGHT_CALIBRATION for one link."""
 
-    def __init__(self, link: MavlinkLink):
+    def __init__(self, link: LinkPort, joystick: Joystick):
         self.link = link
+        self.joystick = joystick      # DO_SET_SERVO drives the outputs it keeps
         self.fw = link.fw
         self.depths: deque[float] = deque(maxlen=BARO_SAMPLES)   # recent pressure depths (m), for calibration
         self.commands: dict[int, Callable[[int, object, Params7], int]] = {
@@ -50,7 +52,7 @@ class VehicleCommands:
 
     def cmd_set_servo(self, ep: int, msg, p: Params7) -> int:
         """MAV_CMD_DO_SET_SERVO: p1 output 1–16, p2 PWM (µs); outputs 9–16 whose function is free."""
-        return self.link.joystick.set_servo(p[0], p[1])
+        return self.joystick.set_servo(p[0], p[1])
 
     def cmd_condition_yaw(self, ep: int, msg, p: Params7) -> int:
         """MAV_CMD_CONDITION_YAW: ArduSub accepts p1 in [0, 360] with p4 0 or 1, else DENIED.

@@ -198,6 +198,9 @@ def _start_processes(opt: SimOptions, seed: int, duration: float, out: Path, chi
     # time. At a speed-up the two disagree, so the scripted mission runs without the GCS failsafe
     # (a result must not depend on how fast the machine is).
     firmware += ["--set", "FS_GCS_ENABLE=0"]
+    # It flies without a joystick and arms as soon as the vehicle boots (its clock held until then): the
+    # pilot-input failsafe, whose clock starts at boot, would disarm it FS_PILOT_TIMEOUT later, as ArduSub's would.
+    firmware += ["--set", "FS_PILOT_INPUT=0"]
     if not opt.speedup:
         # Unpaced, time is the plant's: a plant slow to answer (a busy machine) is not a silent one, so
         # the firmware waits as long as the parameter allows (the user's --set still wins)

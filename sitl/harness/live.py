@@ -55,7 +55,8 @@ class LiveSim:
         self.n_ticks = None if duration is None else int(round(duration * rate))
         self.done = threading.Event()          # set when the loop has stopped (n_ticks flown, or stop())
         self.on_slot: Callable[[object, object], None] | None = None   # (plant state, tick record): the view's
-        if on_event is not None:   # the firmware's STATUSTEXT events (mode, arming, failsafes) as the link sends them
+        self.on_event = on_event
+        if on_event is not None:   # the firmware's STATUSTEXT events (arming, failsafes...) as the link sends them
             send = self.link.statustext
 
             def tapped(severity: int, text: str, ep: int | None = None) -> None:
@@ -69,6 +70,10 @@ class LiveSim:
 
     def _step_world(self, _slot) -> None:
         fw = self.firmware
+        while fw.notes:                          # mode changes, the GCS failsafe: for the log, not sent
+            severity, text = fw.notes.popleft()
+            if self.on_event is not None:
+                self.on_event(severity, text)
         held = fw.armed and all(AUTO_AXES.get(fw.mode, (False, False, False)))   # the controller holds every axis
         ff = fw.last is not None and fw.last.ff_active
         self.setup.hal.step_world()

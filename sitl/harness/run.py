@@ -181,9 +181,10 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
             log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
-            if fw.events:
-                events.extend((truth.t, severity, text) for severity, text in fw.events)
-                fw.events.clear()
+            for queue in (fw.notes, fw.events):       # log-only notes (mode changes...), then STATUSTEXTs
+                if queue:
+                    events.extend((truth.t, severity, text) for severity, text in queue)
+                    queue.clear()
             bar.update(k + 1)
     wall = time.perf_counter() - wall0
     if diverged is not None and len(log) < 2:
