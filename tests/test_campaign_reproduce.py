@@ -17,9 +17,9 @@ pytestmark = pytest.mark.processes
 def test_reproduce_keeps_its_schema_and_figures(tmp_path):
     doc = reproduce(tmp_path, seed=5, duration=2.0, workers=2, progress=lambda m: None)
     assert set(doc) == {"world", "runs", "summary", "corrected", "paper", "wall_time_s"}
-    for d in (doc, doc["corrected"]):
+    for d, world in ((doc, ", paper's world"), (doc["corrected"], "")):
         assert [(r["case"], r["label"]) for r in d["runs"]] == [
-            (c, lab) for c in ("W1", "W2", "W3") for lab in ("C-PD", "C-PD+FF exact", "C-PD+FF 15 dB")]
+            (c, lab + world) for c in ("W1", "W2", "W3") for lab in ("C-PD", "C-PD+FF exact", "C-PD+FF 15 dB")]
     # the paper's table is flown in the paper's world (its load in the plant and the firmware), the other not
     assert "paper's world" in doc["world"] and "corrected" in doc["corrected"]["world"]
     assert doc["runs"][0]["rmse"] != doc["corrected"]["runs"][0]["rmse"]

@@ -163,8 +163,8 @@ class RunSpec:
     def label(self) -> str:
         """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``,
         ``MPC exact``, then whatever differs from the defaults — the law (``paper law``), the estimator
-        (``paper EKF``), and each other changed parameter (``WK_FF_GAIN=0.8``) — so two runs that flew
-        differently never share a label."""
+        (``paper EKF``), the paper's wave load (``paper's world``), and each other changed parameter
+        (``WK_FF_GAIN=0.8``) — so two runs that flew differently never share a label."""
         dob = "+DOB" if self.dob else ""
         law = "MPC" if self.mpc else f"C-PD+FF{dob}"
         if not self.ff:
@@ -179,7 +179,11 @@ class RunSpec:
             extra.append(f"{self.ff_law} law")
         if "WK_EKF_MODE" in changed:
             extra.append(f"{self.estimator} EKF")
-        extra += [f"{n}={v:g}" for n, v in changed.items() if n not in ("WK_FF_MODE", "WK_EKF_MODE")]
+        paper_sea, paper_model = self.sea.get("wave_load") == "paper", changed.get("WK_LOAD_MODEL") == 0
+        if paper_sea or paper_model:    # the paper's wave load (docs/models.md): in the world, the firmware, both
+            extra.append("paper's world" if paper_sea and paper_model else
+                         "paper's sea loads" if paper_sea else "paper's load model")
+        extra += [f"{n}={v:g}" for n, v in changed.items() if n not in ("WK_FF_MODE", "WK_EKF_MODE", "WK_LOAD_MODEL")]
         return ", ".join([base, *extra])
 
 
