@@ -291,8 +291,10 @@ class Firmware:
         return TelemetrySnapshot.from_firmware(self)
 
     def fault_counts(self) -> dict[str, int]:
-        """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral."""
-        return {"feedforward": self.feedforward.faults, "output": self.output_faults}
+        """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral, and
+        ticks the law flew its fallback."""
+        return {"feedforward": self.feedforward.faults, "output": self.output_faults,
+                "law_fallbacks": self.controller.fallbacks}
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:

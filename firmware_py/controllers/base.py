@@ -50,6 +50,11 @@ class Controller(Protocol):
 
     name: str
 
+    @property
+    def fallbacks(self) -> int:
+        """Ticks this law could not compute its command and flew its fallback's (0 for a law without one)."""
+        ...
+
     def reset(self) -> None:
         """Forget the law's memory (a mode change, an arming, a non-finite command)."""
         ...

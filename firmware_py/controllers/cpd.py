@@ -26,6 +26,7 @@ class CascadedPD:
     """The cascaded PD controller and its feed-forward, observer and preview terms (module docstring)."""
 
     name = "cpd"
+    fallbacks = 0            # a closed-form law: it always has its command
 
     def __init__(self, params: ParameterTable, vehicle: VehicleParams, strips: tuple[np.ndarray, np.ndarray],
                  h: float):

@@ -252,7 +252,7 @@ class PreviewMPC:
             self.stats.episodes += 1
             self.say(MAV_SEVERITY.WARNING, f"MPC: flying FF, {_REASON.get(status, 'solver failed')}")
 
-    def summary(self) -> dict:
-        """The flight's solver counts (results.json's ``controller``)."""
-        return {"law": self.name, "solved": self.stats.solved, "fallbacks": dict(self.stats.fallbacks),
-                "fallback_episodes": self.stats.episodes}
+    @property
+    def fallbacks(self) -> int:
+        """Ticks that flew the FF command (every reason)."""
+        return sum(self.stats.fallbacks.values())
