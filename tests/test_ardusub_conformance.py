@@ -290,6 +290,10 @@ def test_arming_moves_home_and_pushes_it(pair: Pair):
 
 def test_gcs_failsafe_texts_and_severities(pair: Pair):
     def probe(v: Vehicle) -> dict:
+        # ArduSub counts its 30 s between "heartbeat lost" texts from boot: the first can come only after
+        # 30 s of vehicle time, so both vehicles go silent past it (on a loaded machine one boots later)
+        while (v.clock(len(v.gs.log)) or 0.0) < 31.0:
+            v.wait(1.0)
         to_manual(v)
         assert v.gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, timeout=v.wall(2.0)).result == 0
         v.wait(1.0)

@@ -134,11 +134,14 @@ def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_e
 
 def take_off(m: MissionSetup) -> None:
     """Take off as a ground station would: the first tick initialises the estimator; then GUIDED to
-    the mission's station, and arm (RuntimeError if the firmware refuses)."""
+    the mission's station, and arm (RuntimeError if the firmware refuses either)."""
     fw = m.firmware
     fw.scheduler.run_tick()
     m.hal.step_world()
-    fw.request_mode(Mode.GUIDED)
+    if fw.request_mode(Mode.GUIDED) != 0:     # refused: the mission would fly MANUAL, which is no mission
+        said = fw.events[-1][1] if fw.events else ""
+        raise RuntimeError(f"the firmware refused GUIDED ({'EKF not converged' if not fw.ekf.converged() else said})"
+                           f": {said}")
     fw.set_target(*m.setpoint)
     result, why = fw.request_arm(True)
     if result != 0:
