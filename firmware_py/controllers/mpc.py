@@ -67,6 +67,7 @@ class MPCSettings(NamedTuple):
     disturbance: bool
     vel_tc: float             # s: the initial u, w blended into the last plan's prediction
     block: int                # steps a demand is held over after the first
+    e_max: float              # m: the largest position error the plan is asked to correct
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
@@ -80,7 +81,7 @@ def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
     offsets, a, b = stage_times(dt, exact_steps=1)      # the command's own step exactly, the rest interpolated
     return MPCSettings(dt, a_mid, e, offsets, a, b, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),
                        float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), float(p["WK_MPC_VEL_TC"]),
-                       int(p["WK_MPC_BLK"]))
+                       int(p["WK_MPC_BLK"]), float(p["WK_MPC_EMAX"]))
 
 
 @dataclass
@@ -162,7 +163,11 @@ class PreviewMPC:
         if not (np.isfinite(X).all() and np.isfinite(A).all() and np.isfinite(B).all() and np.isfinite(E).all()):
             return SolveStatus.NONFINITE, None, 0
         sp = np.asarray(c.setpoint, dtype=float)
-        ref = np.array([sp[0], sp[1], sp[2], 0.0, 0.0, 0.0])
+        # The position error the plan answers is bounded (WK_MPC_EMAX), as C-PD bounds its velocity demand: an
+        # estimate that jumps by a metre (a lapse of the estimator) is chased at a bounded pace, not flat out
+        e = st.e_max
+        ref = np.array([x0[0] + min(max(sp[0] - x0[0], -e), e), x0[1] + min(max(sp[1] - x0[1], -e), e), sp[2],
+                        0.0, 0.0, 0.0])
         g = restoring_terms(self.vehicle, float(sp[1]), float(sp[2]))
         u_trim = (np.array(g) - d) / st.scale      # the wrench that holds the target in still water
         S = prediction_matrix(A, B, E)
