@@ -88,6 +88,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "(move blocking)", ptype="INT8"),
     *_axes("WK_MPC_Q", 0.0, 1e6, ("1/(m^2 s)", "1/(m^2 s)", "1/(rad^2 s)"), "MPC: weight on the position error"),
     *_axes("WK_MPC_QV", 0.0, 1e6, ("s/m^2", "s/m^2", "s/rad^2"), "MPC: weight on the velocity"),
+    ParamDef("WK_MPC_QP_K", 1.0, 1000.0, "", "MPC: the pitch weight's factor over the horizon's first "
+             "WK_MPC_QP_T s (attitude first in the near term, as the mixer's pitch priority)"),
+    ParamDef("WK_MPC_QP_T", 0.0, 10.0, "s", "MPC: how far ahead the pitch weight carries WK_MPC_QP_K"),
     ParamDef("WK_MPC_QT", 0.0, 100.0, "s", "MPC: extra weight on the horizon's last state, as seconds of "
              "its state weights"),
     *_axes("WK_MPC_R", 0.0, 1e4, ("1/s", "1/s", "1/s"), "MPC: weight on the normalised effort off trim"),

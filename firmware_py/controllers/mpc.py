@@ -76,7 +76,8 @@ def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
     dt = horizon_grid(h, p["WK_MPC_DT"], n)
     a_mid, e = lag_profile(dt, p["WK_MOT_TC"])
     q = np.array([*p.axes("WK_MPC_Q"), *p.axes("WK_MPC_QV")])
-    cost = HorizonCost(q, p["WK_MPC_QT"], np.array(p.axes("WK_MPC_R")), np.array(p.axes("WK_MPC_RD")))
+    cost = HorizonCost(q, p["WK_MPC_QT"], np.array(p.axes("WK_MPC_R")), np.array(p.axes("WK_MPC_RD")),
+                       p["WK_MPC_QP_K"], p["WK_MPC_QP_T"])
     scale = np.array(p.axes("WK_TAU_MAX"))
     offsets, a, b = stage_times(dt, exact_steps=1)      # the command's own step exactly, the rest interpolated
     return MPCSettings(dt, a_mid, e, offsets, a, b, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),

@@ -49,6 +49,8 @@ class HorizonCost:
     q_terminal: float
     r: np.ndarray
     rd: np.ndarray
+    near_pitch: float = 1.0    # × the pitch weight over the first ``near_s`` s (attitude first, as the mixer)
+    near_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -108,6 +110,8 @@ class CondensedQP:
         DT = (np.eye(3 * n) - np.eye(3 * n, k=-3)) @ T          # the change of per-step inputs, per block
         self._DT = DT
         w = np.outer(self.dt, cost.q)                            # Δ_{k−1} Q on x_k, k = 1..N
+        near = np.cumsum(self.dt) <= cost.near_s + 1e-9           # the attitude's priority, near term
+        w[near, 2] *= cost.near_pitch
         w[-1] += cost.q_terminal * cost.q
         self._w = w.ravel()
         self._r = np.outer(self.dt, cost.r).ravel()
