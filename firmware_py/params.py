@@ -101,6 +101,8 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
              "the FF fallback); lockstep SITL counts iterations only"),
     ParamDef("WK_MPC_VEL_TC", 0.0, 5.0, "s", "MPC: low-pass time constant on the estimated surge and heave "
              "velocity its horizon starts from; 0 none"),
+    ParamDef("WK_MPC_SQP", 1, 10, "", "MPC: QPs per tick, each linearised about the last one's plan (1: one "
+             "real-time iteration; more: the nonlinear MPC solved further)", ptype="INT8"),
     ParamDef("WK_MPC_EMAX", 0.01, 10.0, "m", "MPC: largest surge and heave error its plan is asked to correct "
              "(the target is moved nearer; as C-PD's WK_VEL_MAX bounds its pace)"),
     ParamDef("WK_MPC_DIST", 0, 1, "", "MPC: the estimator's disturbance wrench in the prediction (1) or not (0)",

@@ -68,6 +68,7 @@ class MPCSettings(NamedTuple):
     vel_tc: float             # s: the initial u, w blended into the last plan's prediction
     block: int                # steps a demand is held over after the first
     e_max: float              # m: the largest position error the plan is asked to correct
+    sqp: int                  # QPs a tick, each about the last one's plan (1: the real-time iteration)
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
@@ -82,7 +83,7 @@ def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
     offsets, a, b = stage_times(dt, exact_steps=1)      # the command's own step exactly, the rest interpolated
     return MPCSettings(dt, a_mid, e, offsets, a, b, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),
                        float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), float(p["WK_MPC_VEL_TC"]),
-                       int(p["WK_MPC_BLK"]), float(p["WK_MPC_EMAX"]))
+                       int(p["WK_MPC_BLK"]), float(p["WK_MPC_EMAX"]), int(p["WK_MPC_SQP"]))
 
 
 @dataclass
@@ -160,9 +161,7 @@ class PreviewMPC:
             return SolveStatus.NONFINITE, None, 0
         qp = self._qp_for(st)
         V = self._nominal(c.t_ahead, st, held)
-        X, A, B, E = linearise_horizon(self.vehicle, x0, tau0, V, st.dt, st.a_mid, d, self._flow(c, st))
-        if not (np.isfinite(X).all() and np.isfinite(A).all() and np.isfinite(B).all() and np.isfinite(E).all()):
-            return SolveStatus.NONFINITE, None, 0
+        flow = self._flow(c, st)
         sp = np.asarray(c.setpoint, dtype=float)
         # The position error the plan answers is bounded (WK_MPC_EMAX), as C-PD bounds its velocity demand: an
         # estimate that jumps by a metre (a lapse of the estimator) is chased at a bounded pace, not flat out
@@ -171,14 +170,24 @@ class PreviewMPC:
                         0.0, 0.0, 0.0])
         g = restoring_terms(self.vehicle, float(sp[1]), float(sp[2]))
         u_trim = (np.array(g) - d) / st.scale      # the wrench that holds the target in still water
-        S = prediction_matrix(A, B, E)
-        res = qp.solve(X, S, V, tau0, ref, u_trim)
-        if res.V is not None:     # the plan's state one tick ahead, linearly: the next tick's prediction
-            x1 = X[1] + S[:6] @ (res.V - V).ravel()
-            self._predicted_uw = (float(x1[3]), float(x1[4]))
-        else:
-            self._predicted_uw = None
-        return res.status, res.V, res.iterations
+        iterations, status = 0, SolveStatus.FAILED
+        for _ in range(st.sqp):     # sequential QPs about the newest plan: 1 is the real-time iteration
+            X, A, B, E = linearise_horizon(self.vehicle, x0, tau0, V, st.dt, st.a_mid, d, flow)
+            if not (np.isfinite(X).all() and np.isfinite(A).all() and np.isfinite(B).all()
+                    and np.isfinite(E).all()):
+                self._predicted_uw = None
+                return SolveStatus.NONFINITE, None, iterations
+            S = prediction_matrix(A, B, E)
+            res = qp.solve(X, S, V, tau0, ref, u_trim)
+            iterations += res.iterations
+            status = res.status
+            if res.V is None:
+                self._predicted_uw = None
+                return status, None, iterations
+            x1 = X[1] + S[:6] @ (res.V - V).ravel()   # the plan's state one tick ahead: the next prediction
+            V = res.V
+        self._predicted_uw = (float(x1[3]), float(x1[4]))
+        return status, V, iterations
 
     def _initial_state(self, x_ahead: np.ndarray, st: MPCSettings) -> np.ndarray:
         """The horizon's first state: the estimate, with its surge and heave velocity blended into the last
