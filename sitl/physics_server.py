@@ -346,7 +346,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             from .buoy_publisher import BuoyPublisher
             net = load_network_config(args.buoy_network)
             session = open_session(net, "plant")
-            buoy = BuoyPublisher(session, net["site"], sea)
+            buoy = BuoyPublisher(session, net["site"], sea, clock_offset_s=args.sea_start)
 
         def factory():
             plant = Plant.from_configs(sea, args.vehicle, args.mission, args.true_vehicle, args.start,

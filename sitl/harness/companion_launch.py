@@ -58,7 +58,8 @@ def stand_in_args(method: str) -> list[str]:
     return args
 
 
-def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None) -> dict:
+def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None,
+                     binary=None) -> dict:
     """Run one mission with the companion flying the stand-in; returns the results document (also in DIR)."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)

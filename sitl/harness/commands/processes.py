@@ -26,6 +26,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--horizon", type=o.positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
     p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
     p.add_argument("--network", default="network", help="network config: a name in configs/ or a path")
+    p.add_argument("--sea-start", type=float, default=0.0, metavar="S",
+                   help="the vehicle's clock (s) at the sea's t = 0: a plant run with --sea-start S")
     o.add_world(p, vehicle=False)
     p.set_defaults(func=cmd_forecast)
 
@@ -53,6 +55,11 @@ def add_parsers(sub) -> None:
                    help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
+    p.add_argument("--autopilot", default=None, metavar="ardusub:PATH",
+                   help="fly the real ArduSub SITL binary at PATH instead of Wavekeep's firmware (its own hold, or "
+                        "the companion's with --companion; docs/ardusub.md)")
+    p.add_argument("--ardusub-mode", choices=("guided", "alt_hold", "poshold"), default="guided",
+                   help="--autopilot without --companion: ArduSub's mode for the mission (after a GUIDED dive)")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     o.add_out(p, required=False, default="runs/sim")
     p.set_defaults(func=cmd_sim)
@@ -97,13 +104,23 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
+    binary = None
+    if args.autopilot is not None:
+        from ..ardusub import parse_autopilot
+        try:
+            binary = parse_autopilot(args.autopilot)
+        except ValueError as exc:
+            raise o.UsageError(str(exc)) from None
     out = o.check_out(args.out, force=args.force)
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
     try:
         if args.companion:
             from ..companion_launch import launch_companion
-            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
+            r = launch_companion(opt, args.companion, args.companion_port, progress=None, binary=binary)
+        elif binary is not None:
+            from ..ardusub_launch import launch_ardusub
+            r = launch_ardusub(opt, binary, args.ardusub_mode, progress=None)
         else:
             r = launch(opt, progress=None)
     except LaunchError as exc:
@@ -122,6 +139,7 @@ def cmd_forecast(args: argparse.Namespace) -> int:
     """The forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM."""
     import signal
     import threading
+    from dataclasses import replace
 
     import numpy as np
 
@@ -140,6 +158,9 @@ def cmd_forecast(args: argparse.Namespace) -> int:
     if args.forecast == "oracle":
         _, forecast_seed = derive_seeds(sea.seed)
         oracle = oracle_forecast(sea.components, args.forecast_snr_db, np.random.default_rng(forecast_seed))
+        if args.sea_start:
+            # phases referred to the sea's t = 0, which is the vehicle's sea_start: the same components, later
+            oracle = replace(oracle, time_base=oracle.time_base + args.sea_start)
     x_vehicle = load_mission_config(args.mission)["setpoint"]["x"]
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
