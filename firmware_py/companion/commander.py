@@ -15,13 +15,18 @@ Methods (``docs/companion.md``):
   motor factors to the mixer's PWM). RC_CHANNELS_OVERRIDE is not scaled by
   ArduSub's pilot gain (JS_GAIN applies to MANUAL_CONTROL only).
 * ``servo`` — outputs 1–8 set to RCIN9–16 pass-through (SERVOn_FUNCTION = 58 + n):
-  the companion's own mixer and T200 inverse, overriding channels 9–16.
+  the companion's own mixer and T200 inverse, overriding channels 9–16. The
+  outputs are ArduSub's motors (33–40) whenever the companion is not flying:
+  it switches them to pass-through when it engages and back to the motors when
+  it releases, so the mode the pilot selects has thrusters (ArduSub's own modes
+  drive only outputs set to motors).
 
 Safety: the companion never arms and never changes mode. It engages only when
 it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed),
 and releases — at once, from the message that told it, so within one tick — on
 any mode change or disarm, on stale telemetry (``stale_s`` of wall time without
-ATTITUDE), and on exit. Releasing is the protocol's: 0 on channels 1–8,
+ATTITUDE), on an estimate that is no longer finite (the estimator starts again
+from the next readings), and on exit. Releasing is the protocol's: 0 on channels 1–8,
 65534 (UINT16_MAX − 1) on 9–16; 65535 (and 0 on 9–18) leaves a channel alone.
 Every engagement and release is said in a STATUSTEXT. Overrides also expire in
 the autopilot after RC_OVERRIDE_TIME, so a killed companion stops commanding.
@@ -34,13 +39,23 @@ import numpy as np
 
 from .autopilot import MANUAL, SUB_MODES, AutopilotLink
 
-__all__ = ["ARDUSUB_FACTORS", "Commander", "release_channels"]
+__all__ = ["ARDUSUB_FACTORS", "MOTOR_FUNCTIONS", "PASSTHROUGH_FUNCTIONS", "Commander", "release_channels",
+           "set_output_functions"]
 
 IGNORE, RELEASE_LOW, RELEASE_HIGH = 65535, 0, 65534
+MOTOR_FUNCTIONS = tuple(range(33, 41))          # SERVO1-8_FUNCTION: motors 1-8 (ArduSub's own mixer)
+PASSTHROUGH_FUNCTIONS = tuple(range(59, 67))    # SERVO1-8_FUNCTION: RCIN9-16 (the companion's PWM)
 
 ARDUSUB_FACTORS = np.array([
     # pitch, throttle, forward (docs/reference.md §3, BlueROV2 Heavy, motors 1-8)
     [0, 0, -1], [0, 0, -1], [0, 0, 1], [0, 0, 1], [-1, -1, 0], [-1, -1, 0], [1, -1, 0], [1, -1, 0]], dtype=float)
+
+
+def set_output_functions(link: AutopilotLink, functions: tuple[int, ...]) -> None:
+    """SERVO1-8_FUNCTION as given (PARAM_SET, twice: UDP); ArduSub re-assigns its outputs at once."""
+    for _ in range(2):
+        for n, f in enumerate(functions, 1):
+            link.set_param(f"SERVO{n}_FUNCTION", float(f))
 
 
 def release_channels(method: str) -> list[int]:
@@ -68,7 +83,11 @@ class Commander:
         self.sent_any = False
         self.fw = None                  # the companion's Firmware (set once built)
         self.events: list[tuple[float, str]] = []
-        self.latency_s: list[float] = []
+        self.latency_s: list[float] = []      # wall s from the ATTITUDE's arrival to the command sent
+        self.answered_ms: list[int] = []      # that ATTITUDE's time_boot_ms, per command
+        self.sent: list[list[int]] = []       # the channels it set (servo: 9-16; rc: 1, 3, 5)
+        self._resets = 0                # the estimator's restarts seen (a non-finite estimate)
+        self._faults = 0                # non-finite commands the control task replaced by neutral
         link.on_mode_change = self.on_mode_change
 
     # ------------------------------------------------------------------ safety
@@ -86,15 +105,33 @@ class Commander:
         """Before each control tick: engage when allowed, release on stale telemetry."""
         st = self.link.state
         fresh = self.link.fresh("ATTITUDE", self.stale_s) is not None
-        if self.engaged and not fresh:
+        if self.fw is not None and self._diverged():
+            self.selected = False
+            self.release("estimate not finite: re-initialised")
+        elif self.engaged and not fresh:
+            import sys; s_=self.link.state.samples.get("ATTITUDE"); print("DEBUG stale gate", time.monotonic()-s_.arrived if s_ else None, s_.t_ms if s_ else None, file=sys.stderr, flush=True)
             self.selected = False
             self.release("stale telemetry")
         elif not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL:
             self._engage()
 
+    def _diverged(self) -> bool:
+        """Has the estimate (or a command from it) stopped being finite since the last look? The estimator
+        restarts itself from the next readings; the pilot gets the vehicle back meanwhile."""
+        fw = self.fw
+        ekf = fw.ekf
+        if ekf.initialised and not (np.isfinite(ekf.x).all() and np.isfinite(ekf.P).all()):
+            ekf.initialised = False        # a prediction diverged: initialise again from the next readings
+            ekf.restarts += 1
+        resets, faults = ekf.restarts, fw.output_faults
+        changed = resets != self._resets or faults != self._faults
+        self._resets, self._faults = resets, faults
+        return changed
+
     def watchdog(self) -> None:
         """Called while waiting for telemetry: stale telemetry releases without waiting for a tick."""
         if self.engaged and self.link.fresh("ATTITUDE", self.stale_s) is None:
+            import sys; s_=self.link.state.samples.get("ATTITUDE"); print("DEBUG stale watchdog", time.monotonic()-s_.arrived if s_ else None, s_.t_ms if s_ else None, file=sys.stderr, flush=True)
             self.selected = False
             self.release("stale telemetry")
 
@@ -103,6 +140,10 @@ class Commander:
         if fw is None or not fw.ekf.initialised:
             return
         station = fw.setpoint.copy()
+        if self.method == "servo":
+            # the pass-through inputs hold neutral before the outputs switch to them (no gap of 0 µs)
+            self.link.rc_override([IGNORE] * 8 + [1500] * 8 + [0, 0])
+            set_output_functions(self.link, PASSTHROUGH_FUNCTIONS)
         fw.request_arm(True, force=True)
         if fw.request_mode(4) != 0:           # GUIDED: every axis held
             fw.request_mode(2)                # no position estimate: ALT_HOLD (depth and pitch)
@@ -114,6 +155,8 @@ class Commander:
         """Hand every channel this method uses back (three times: UDP) and stop commanding."""
         if not (self.engaged or self.sent_any):
             return
+        if self.method == "servo":
+            set_output_functions(self.link, MOTOR_FUNCTIONS)    # the pilot's mode has thrusters again
         for _ in range(3):
             self.link.rc_override(release_channels(self.method))
         was = self.engaged
@@ -132,11 +175,18 @@ class Commander:
         """The HAL's write_pwm: send the mixer's output the chosen way, only while engaged."""
         if not self.engaged:
             return
-        self.link.rc_override(self.channels(np.asarray(pwm, dtype=float)))
+        if self.fw is not None and self._diverged():   # the tick just replaced a non-finite command
+            self.selected = False
+            self.release("estimate not finite: re-initialised")
+            return
+        channels = self.channels(np.asarray(pwm, dtype=float))
+        self.link.rc_override(channels)
         self.sent_any = True
         att = self.link.state.samples.get("ATTITUDE")
         if att is not None:
             self.latency_s.append(time.monotonic() - att.arrived)
+            self.answered_ms.append(att.t_ms)     # the telemetry this command answers (the autopilot's clock)
+            self.sent.append(channels[8:16] if self.method == "servo" else [channels[i] for i in (0, 2, 4)])
 
     def channels(self, pwm: np.ndarray) -> list[int]:
         """The RC_CHANNELS_OVERRIDE channel values (18) for the mixer's eight PWMs."""

@@ -87,8 +87,9 @@ class ArduSubProcess:
         self.name = "ardusub"
         folder.mkdir(parents=True, exist_ok=True)
         self.instance = free_instance() if instance is None else instance
-        self.argv = [str(binary), "--model", "JSON:127.0.0.1", "--sim-port-out", str(plant_port),
-                     "--defaults", cfg["defaults"], "-I", str(self.instance), "-w",
+        # -I first: it offsets the ports given before it (the physics port too) by 10·N
+        self.argv = [str(binary), "-I", str(self.instance), "--model", "JSON:127.0.0.1", "--sim-port-out",
+                     str(plant_port), "--defaults", cfg["defaults"], "-w",
                      "--speedup", f"{cfg['speedup'] if speedup is None else speedup:g}",
                      "--home", f"{cfg['home']['lat']},{cfg['home']['lon']},0,0",
                      "--serial0", f"udpclient:127.0.0.1:{gcs_port}"]

@@ -49,7 +49,7 @@ def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress
     if mode not in ARDUSUB_MODES:
         raise LaunchError(f"--ardusub-mode takes {', '.join(ARDUSUB_MODES)}, got {mode!r}", 2)
     cfg = load_ardusub_config()
-    sea, mcfg, duration, setpoint, out = prepare_run(opt)
+    sea, _mcfg, duration, setpoint, out = prepare_run(opt)
     _check_port(opt.plant_port, "plant")
     _check_port(opt.gcs_port, "GCS")
     sea_start = cfg["sea_start_s"]
