@@ -1,6 +1,10 @@
 """Issue #11's acceptance checks on a campaign's rows (variants ``cpd``, ``ff_exact``, ``ff_15db``).
 
-    python -m benchmarks.ff_acceptance runs/robust_ff_30_seeds/missions.csv [--out results.json]
+    python -m benchmarks.ff_acceptance runs/robust_ff_30_seeds/missions.csv [--out results.json] [--suffix S]
+
+``--suffix S`` checks the variants ``cpd S``, ``ff_exact S`` and ``ff_15db S`` of a campaign that flies the
+same grid twice (``configs/campaign/corrected_world_20_seeds.yaml``: ``_paper`` is the paper's world).
+Each variant's figures also give its mean share of saturated ticks and its mean power per case.
 
 Per (case, seed), against C-PD on the same seed:
 * no FF mission (a variant named ``ff…``) reaches 20° of pitch error;
@@ -28,9 +32,11 @@ def _bootstrap_ci(x: np.ndarray, resamples: int = 10_000, seed: int = 0) -> list
     return [float(v) for v in np.percentile(means, [2.5, 97.5])]
 
 
-def acceptance(rows: list[dict[str, str]]) -> dict:
-    """The checks, and per case and variant the figures they rest on."""
-    by = {(r["case"], int(r["seed"]), r["variant"]): r for r in rows if r["status"] == "ok"}
+def acceptance(rows: list[dict[str, str]], suffix: str = "") -> dict:
+    """The checks, and per case and variant the figures they rest on (variants named ``cpd{suffix}`` etc.)."""
+    names = {f"{v}{suffix}": v for v in ("cpd", "ff_exact", "ff_15db")}
+    by = {(r["case"], int(r["seed"]), names[r["variant"]]): r for r in rows
+          if r["status"] == "ok" and r["variant"] in names}
     cases = sorted({c for c, _, _ in by})
     seeds = sorted({s for _, s, _ in by})
     val = lambda c, s, v, key: float(by[(c, s, v)][key])  # noqa: E731
@@ -48,7 +54,7 @@ def acceptance(rows: list[dict[str, str]]) -> dict:
                 ff, cpd = val(c, s, "ff_exact", f"max_abs_error_{d}"), val(c, s, "cpd", f"max_abs_error_{d}")
                 if ff > cpd + 0.1:
                     worse.append(f"{c} seed {s} {d} {ff:.3f} m vs {cpd:.3f} m")
-    figures: dict = {}
+    figures: dict = {"cpd": {c: _usage(by, c, seeds, "cpd") for c in cases}}
     for v in ("ff_exact", "ff_15db"):
         figures[v] = {}
         every = []
@@ -61,7 +67,8 @@ def acceptance(rows: list[dict[str, str]]) -> dict:
             figures[v][c] = {"seeds": int(red.size), "mean_rmse_reduction_pct": float(red.mean()),
                              "ci95_pct": _bootstrap_ci(red), "min_pct": float(red.min()),
                              "share_of_seeds_won": float(np.mean(red > 0)),
-                             "worst_max_pitch_deg": max(pitch_deg(c, s, v) for s in seeds if (c, s, v) in by)}
+                             "worst_max_pitch_deg": max(pitch_deg(c, s, v) for s in seeds if (c, s, v) in by),
+                             **_usage(by, c, seeds, v)}
         figures[v]["share_of_pairs_won"] = float(np.mean(np.array(every) > 0)) if every else float("nan")
     checks = {
         "no_ff_mission_over_20deg_pitch": {"pass": not over_20, "failures": over_20},
@@ -75,13 +82,23 @@ def acceptance(rows: list[dict[str, str]]) -> dict:
     return {"missions": len(by), "cases": cases, "seeds": len(seeds), "checks": checks, "figures": figures}
 
 
+def _usage(by: dict, case: str, seeds: list[int], variant: str) -> dict:
+    """A variant's mean share of saturated ticks and mean total power (W, surge + heave + pitch) over seeds."""
+    rows = [by[(case, s, variant)] for s in seeds if (case, s, variant) in by]
+    sat = [float(r["saturated_fraction"]) for r in rows if r.get("saturated_fraction", "") != ""]
+    power = [sum(float(r[f"mean_power_w_{d}"]) for d in DOF) for r in rows]
+    return {"saturated_fraction_mean": float(np.mean(sat)) if sat else float("nan"),
+            "mean_power_w": float(np.mean(power)) if power else float("nan")}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("missions_csv", help="a campaign's missions.csv")
     ap.add_argument("--out", default=None, help="also write the document as JSON here")
+    ap.add_argument("--suffix", default="", help="check the variants cpd SUFFIX, ff_exact SUFFIX, ff_15db SUFFIX")
     args = ap.parse_args(argv)
     with open(args.missions_csv, newline="", encoding="utf-8") as fh:
-        doc = acceptance(list(csv.DictReader(fh)))
+        doc = acceptance(list(csv.DictReader(fh)), args.suffix)
     text = json.dumps(doc, indent=1)
     if args.out:
         Path(args.out).write_text(text + "\n", encoding="utf-8")

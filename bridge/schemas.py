@@ -37,6 +37,10 @@ VEHICLE_SCHEMA = {
         "r_B": Field("floats", lo=-1.0, hi=1.0, length=3),
         "length": _positive(10.0, "body length L (m)"),
         "height": _positive(10.0, "body height (m)"),
+        # The Froude–Krylov force ρ∇·a of the wave's pressure gradient acts on the displaced water
+        "displaced_volume": Field("float", lo=0.0, lo_open=True, hi=100.0, required=False,
+                                  doc="m^3; absent: B / (rho g), the volume the buoyancy implies"),
+        "water_density": Field("float", lo=990.0, hi=1050.0, default=1025.0, doc="kg/m^3"),
     },
     "added_mass": {
         "X_udot": Field("float", lo=0.0, hi=1e3),

@@ -33,10 +33,23 @@ from bridge.models.vehicle import VehicleParams, ned_to_body, restoring_forces
 
 from .floats import clip_float
 from .params import ParameterTable
+from .tick_columns import SolveStatus
 
-__all__ = ["ControlOutput", "StationKeepingController"]
+__all__ = ["ControlOutput", "SolveInfo", "SolveStatus", "StationKeepingController"]
 
 _GAIN_FAMILIES = ("WK_PD_KP", "WK_PD_KD", "WK_VEL_MAX", "WK_VEL_KP", "WK_TAU_MAX")
+
+
+@dataclass(frozen=True)
+class SolveInfo:
+    """One tick's solver record: status, iterations and compute time (ms, wall clock)."""
+
+    status: SolveStatus = SolveStatus.NONE
+    iterations: int = 0
+    solve_ms: float = 0.0
+
+
+NO_SOLVE = SolveInfo()
 
 
 @dataclass(frozen=True)
@@ -45,8 +58,10 @@ class ControlOutput:
 
     tau: np.ndarray        # the saturated total command
     tau_ff: np.ndarray     # the feed-forward part as applied (g_ff · τ_FF)
-    saturated: bool        # some axis hit ±τ_max (logged per tick)
+    saturated: bool        # some axis hit ±τ_max, or the command the limits (logged per tick)
     tau_dob: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the DOB part as applied
+    target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # the target moved by (preview)
+    solve: SolveInfo = NO_SOLVE
 
 
 class _Gains(NamedTuple):

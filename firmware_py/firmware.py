@@ -23,7 +23,8 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
 from .aux_outputs import AuxOutputs
-from .control import ControlOutput, StationKeepingController
+from .control import ControlOutput, SolveInfo
+from .controllers import ControlInput, ControllerEnv, build_controller
 from .depth_correction import DepthCorrection
 from .estimator import PlanarEKF
 from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
@@ -33,13 +34,16 @@ from .hal import HAL
 from .mixer import MixerOutput, MotorMixer
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput
 from .params import ParameterTable
-from .preview import SaturationPreview
 from .scheduler import Scheduler, Task
 from .sensors import SensorFrame
 from .telemetry_snapshot import TelemetrySnapshot
 from .tick_columns import TICK_COLUMNS
 
-__all__ = ["TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
+__all__ = ["LOAD_MODELS", "TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
+
+LOAD_MODELS = {0: "paper", 1: "complete"}
+"""``WK_LOAD_MODEL`` values: the nominal model's fluid-inertia load (one of
+:data:`~bridge.models.vehicle.WAVE_LOAD_MODELS`)."""
 
 
 @dataclass(frozen=True)
@@ -61,13 +65,15 @@ class TickRecord:
     nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
     target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # saturation preview's [x, z, θ] (m, rad)
     ff_skill: np.ndarray = field(default_factory=lambda: np.ones(3))    # forecast's skill per axis [X, Z, M]
+    solve: SolveInfo = field(default_factory=SolveInfo)                 # the controller's solver this tick
 
 
 def tick_row(r: TickRecord) -> list[float]:
     """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
     return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
             float(r.ff_active), *r.ff_weight, float(r.control.saturated), *r.sigma[3:6], *r.d_hat,
-            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2], *r.ff_skill]
+            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2], *r.ff_skill,
+            float(r.solve.status), float(r.solve.iterations), r.solve.solve_ms]
 
 
 @dataclass(frozen=True)
@@ -98,16 +104,18 @@ class Firmware:
                  forecast: ForecastHandoff | None = None, on_tick: Callable[[TickRecord], None] | None = None):
         self.hal = hal
         self.params = params
+        vehicle = vehicle.with_wave_load(LOAD_MODELS[int(params["WK_LOAD_MODEL"])])   # read at boot
         self.vehicle = vehicle
         self.h = 1.0 / loop_rate_hz
         self.strips = strip_nodes(vehicle.length, strips)
         self.setpoint = np.asarray(setpoint, dtype=float)   # the current target [x, z, θ]
         self.forecast = forecast if forecast is not None else ForecastHandoff()
         self.ekf = PlanarEKF(vehicle, params, self.h)
-        self.controller = StationKeepingController(params, vehicle)
         self.mixer = MotorMixer(layout, curve, params, self.h)
         self.feedforward = WaveFeedForward(vehicle, params, self.h)
-        self.preview = SaturationPreview(vehicle, params, self.strips, self.h)
+        # the station-keeping law (WK_CTRL_LAW, read at boot): a strategy behind one interface
+        self.controller = build_controller(ControllerEnv(params, vehicle, layout, self.strips, self.h, self.say,
+                                                         not getattr(hal.clock, "simulated", True)))
         self.depth_correction = DepthCorrection(params)
         self._ff_faded = False
         self._ff_aside = False
@@ -359,13 +367,14 @@ class Firmware:
             flow = skill_weighted_flow(flow, self.feedforward.skill_weight)
         self.flight_mode.update_target(self.setpoint, self.pilot, t, self.params, self.h)
         d_hat = self.ekf.disturbance
-        target = self.setpoint + self._preview_offset(ff_active, t, trusted)
-        control = self.controller.update(self._ahead(t), target, ff.tau_ff, self.h, d_hat)
+        control = self.controller.update(ControlInput(
+            t, t + delay * self.h, self.h, self.ekf.x, self._ahead(t), self.setpoint, ff,
+            self.forecast.current(t) if ff_active else None, trusted, d_hat, self.mixer.wrench()))
         mix = self._mix(control, t)
         self._output(mix, flow, t)
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total,
-                               target - self.setpoint, ff.skill)
+                               control.target_offset, ff.skill, control.solve)
         if self.on_tick is not None:
             self.on_tick(self.last)
 
@@ -400,12 +409,6 @@ class Firmware:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
             ff_active, flow = False, None
         return ff_active, flow, ff
-
-    def _preview_offset(self, ff_active: bool, t: float, trusted: bool) -> np.ndarray:
-        """The saturation preview's target offset (robust FF only, docs/feedforward.md); zeros otherwise."""
-        active = self.forecast.current(t) if ff_active and int(self.params["WK_FF_MODE"]) == 1 else None
-        return self.preview.update(None if active is None else active.components, self.ekf.x, self.setpoint, t,
-                                   trusted)
 
     def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
         """The thruster outputs: neutral disarmed (but RCIN pass-through), a motor test, or the held axes'

@@ -80,6 +80,10 @@ class MotorMixer:
     def reset(self) -> None:
         self.f_hat = np.zeros(self.layout.n)
 
+    def wrench(self) -> np.ndarray:
+        """The body wrench [X, Z, M] (N, N, N m) the motors give now, by the motor model: B f̂."""
+        return self.B @ self.f_hat
+
     def settings(self) -> _Settings:
         """The mixer's parameters, read from the table again only when it has changed (its ``version``)."""
         return self.params.derived(self._read_settings)

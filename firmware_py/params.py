@@ -159,6 +159,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_FF_GAIN", 0.0, 2.0, "", "scale on the predicted wave load used as feed-forward"),
     ParamDef("WK_FF_MODE", 0, 2, "", "feed-forward law: 0 paper (nu = 0), 1 robust, "
              "2 wave part at the estimated velocity", integer=True),
+    ParamDef("WK_LOAD_MODEL", 0, 1, "", "nominal wave-load model of the FF, estimator and preview: 1 complete "
+             "(Froude-Krylov + added mass, with the pitch coupling), 0 the paper's (added mass only); read at boot",
+             ptype="INT8"),
     ParamDef("WK_FF_VEL_TC", 0.0, 5.0, "s", "robust FF: low-pass time constant of the estimated velocity it uses"),
     *_axes("WK_FF_LIM", 0.0, 2.0, ("", "", ""), "robust FF: feed-forward authority as a fraction of tau_max"),
     ParamDef("WK_FF_MON_THR", 0.0, 2.0, "", "robust FF: predicted-observed load disagreement (fraction of "
@@ -183,6 +186,24 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_PRV_RATE", 0.01, 2.0, "m/s", "saturation preview: slew rate of the target shift"),
     ParamDef("WK_PRV_MAX_X", 0.0, 2.0, "m", "saturation preview: largest surge target shift"),
     ParamDef("WK_PRV_MAX_Z", 0.0, 2.0, "m", "saturation preview: largest heave target shift"),
+    # The law (firmware_py/controllers) and the preview MPC (docs/mpc.md)
+    ParamDef("WK_CTRL_LAW", 0, 1, "", "station-keeping law: 0 cascaded PD (with FF, DOB, preview as enabled), "
+             "1 preview MPC (falls back to C-PD+FF); read at boot", ptype="INT8"),
+    ParamDef("WK_MPC_N", 2, 80, "", "MPC: horizon steps (the control period first, then WK_MPC_DT each)",
+             ptype="INT8"),
+    ParamDef("WK_MPC_DT", 0.05, 1.0, "s", "MPC: horizon step after the first"),
+    *_axes("WK_MPC_Q", 0.0, 1e6, ("1/(m^2 s)", "1/(m^2 s)", "1/(rad^2 s)"), "MPC: weight on the position error"),
+    *_axes("WK_MPC_QV", 0.0, 1e6, ("s/m^2", "s/m^2", "s/rad^2"), "MPC: weight on the velocity"),
+    ParamDef("WK_MPC_QT", 0.0, 100.0, "s", "MPC: extra weight on the horizon's last state, as seconds of "
+             "its state weights"),
+    *_axes("WK_MPC_R", 0.0, 1e4, ("1/s", "1/s", "1/s"), "MPC: weight on the normalised effort off trim"),
+    *_axes("WK_MPC_RD", 0.0, 1e4, ("s", "s", "s"), "MPC: weight on the normalised effort's change"),
+    ParamDef("WK_MPC_ITER", 1, 10000, "", "MPC: solver iteration budget per tick (beyond it: the FF fallback)",
+             ptype="INT16"),
+    ParamDef("WK_MPC_BUDGET", 0.01, 1000.0, "ms", "MPC: compute budget per tick on the wall clock (beyond it: "
+             "the FF fallback); lockstep SITL counts iterations only"),
+    ParamDef("WK_MPC_DIST", 0, 1, "", "MPC: the estimator's disturbance wrench in the prediction (1) or not (0)",
+             ptype="INT8"),
     # Motors and mixer
     ParamDef("WK_THR_MAX", 1.0, 60.0, "N", "per-thruster thrust limit used by the allocation"),
     ParamDef("WK_THR_MIN", 0.0, 5.0, "N", "thrust commands smaller than this are sent as neutral PWM"),

@@ -5,7 +5,21 @@ firmware's CSV, the results schema) need not import the firmware itself (numba, 
 """
 from __future__ import annotations
 
-__all__ = ["TICK_COLUMNS"]
+from enum import IntEnum
+
+__all__ = ["TICK_COLUMNS", "SolveStatus"]
+
+
+class SolveStatus(IntEnum):
+    """What a controller's solver did this tick (the ``ctrl_status`` column; 0 for a law with no solver)."""
+
+    NONE = 0          # no solver (C-PD and its FF/DOB terms)
+    SOLVED = 1        # the optimiser's command was flown
+    TIMEOUT = 2       # out of its budget (iterations, or milliseconds on a wall clock): the fallback flew
+    INFEASIBLE = 3    # no command within the limits: the fallback flew
+    NONFINITE = 4     # a non-finite model or result: the fallback flew
+    FAILED = 5        # any other solver failure: the fallback flew
+
 
 TICK_COLUMNS = (
     ["x_hat", "z_hat", "theta_hat", "u_hat", "w_hat", "q_hat", "sigma_x", "sigma_z", "sigma_theta"]
@@ -15,5 +29,6 @@ TICK_COLUMNS = (
     + ["ff_active", "ff_w_X", "ff_w_Z", "ff_w_M", "saturated"]
     + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
     + ["nis", "nis_dof", "prv_x", "prv_z", "ff_skill_X", "ff_skill_Z", "ff_skill_M"]
+    + ["ctrl_status", "ctrl_iter", "ctrl_ms"]     # the law's solver: SolveStatus, iterations, compute (ms)
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""

@@ -5,7 +5,9 @@ thrusters' actual thrusts f (N). The thrusters follow their PWM
 command through the T200 curve with a first-order lag (time constant t_m); the
 body moves under paper Eq. 2 with τ = B_μ f, its damping and added-mass
 Coriolis forces taken on the velocity relative to the water and the fluid's
-inertia force of Eq. 11 (see :func:`~bridge.models.vehicle.hydrodynamic_load`).
+inertia force — Froude–Krylov and added mass, (ρ∇ + M_A)·a, or the paper's
+M_A·a alone when the sea config's ``wave_load`` is ``paper`` (see
+:func:`~bridge.models.vehicle.hydrodynamic_load`).
 
 Each control period is integrated with ``substeps`` classical RK4 steps; the
 motor lag is solved exactly over the period (the PWM is held constant). The
@@ -64,7 +66,7 @@ class Plant:
                  motor_time_constant: float, substeps: int = 1, strips: int = 6):
         if substeps < 1 or strips < 1:
             raise ValueError("substeps and strips must be >= 1")
-        self.vehicle = vehicle
+        self.vehicle = vehicle.with_wave_load(sea.wave_load)   # the world's load model is the sea config's
         self.sea = sea
         self.layout = layout
         self.curve = curve
@@ -141,7 +143,7 @@ class Plant:
             self.pressure_depth = float(s.eta[1] + head)
 
     def wave_load(self, eta, nu, t) -> np.ndarray:
-        """τ_E (paper Eq. 11, relative-velocity form) on the body at pose η moving with ν, at plant time t."""
+        """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at plant time t."""
         if self._calm(t):
             return np.zeros(3)
         return wave_load(self.vehicle, self.sea.components, eta, nu, t - self.sea_start, self.strips, self.current_x)

@@ -21,6 +21,7 @@ import numpy as np
 
 from bridge.configfile import ConfigError, Field, apply_overrides, read_yaml, resolve_config, validate
 from bridge.csvio import read_numeric_csv
+from bridge.models.vehicle import WAVE_LOAD_MODELS
 from bridge.models.waves import (
     G,
     WaveComponents,
@@ -194,6 +195,9 @@ SEA_SCHEMA = {
         "direction": Field("float", lo=-90.0, hi=90.0, default=0.0,
                            doc="deg, mean direction of travel from the buoy-vehicle line (+x)"),
     },
+    # The fluid-inertia load the world applies (docs/models.md): "complete" = (ρ∇ + M_A)·a with the pitch
+    # coupling (Froude–Krylov + added mass); "paper" = the paper's M_A·a alone, to reproduce its table
+    "wave_load": Field("choice", choices=WAVE_LOAD_MODELS, default="complete"),
     # The depth sensor sees the waves' linear dynamic pressure (docs/sea-errors.md)
     "depth_sensor": {
         "dynamic_pressure": Field("bool", default=False),
@@ -384,6 +388,7 @@ class Sea:
     buoy_errors: BuoyErrors = NO_BUOY_ERRORS            # the buoy's measurement errors (none by default)
     current: tuple[float, float] = (0.0, 0.0)           # steady current: speed (m/s), direction (deg from +x)
     dynamic_pressure: bool = False                      # the depth sensor sees the waves' dynamic pressure
+    wave_load: str = "complete"                         # the world's load model (WAVE_LOAD_MODELS)
 
     @classmethod
     def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
@@ -416,7 +421,8 @@ class Sea:
         by = cfg["buoy"]
         errors = BuoyErrors(by["noise_snr_db"], by["dropout"], by["clock_offset"], seed)
         return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, by["x"], by["sample_rate"], focus, errors,
-                   (cfg["current"]["speed"], cfg["current"]["direction"]), cfg["depth_sensor"]["dynamic_pressure"])
+                   (cfg["current"]["speed"], cfg["current"]["direction"]), cfg["depth_sensor"]["dynamic_pressure"],
+                   cfg["wave_load"])
 
     @classmethod
     def load(cls, case: str | Path, seed: int | None = None, overrides: Mapping[str, Any] | None = None) -> Sea:

@@ -16,9 +16,15 @@ pytestmark = pytest.mark.processes
 
 def test_reproduce_keeps_its_schema_and_figures(tmp_path):
     doc = reproduce(tmp_path, seed=5, duration=2.0, workers=2, progress=lambda m: None)
-    assert set(doc) == {"runs", "summary", "paper", "wall_time_s"}
-    assert [(r["case"], r["label"]) for r in doc["runs"]] == [
-        (c, lab) for c in ("W1", "W2", "W3") for lab in ("C-PD", "C-PD+FF exact", "C-PD+FF 15 dB")]
+    assert set(doc) == {"world", "runs", "summary", "corrected", "paper", "wall_time_s"}
+    for d in (doc, doc["corrected"]):
+        assert [(r["case"], r["label"]) for r in d["runs"]] == [
+            (c, lab) for c in ("W1", "W2", "W3") for lab in ("C-PD", "C-PD+FF exact", "C-PD+FF 15 dB")]
+    # the paper's table is flown in the paper's world (its load in the plant and the firmware), the other not
+    assert "paper's world" in doc["world"] and "corrected" in doc["corrected"]["world"]
+    assert doc["runs"][0]["rmse"] != doc["corrected"]["runs"][0]["rmse"]
+    for name in REPRODUCE_FIGURES:
+        assert (tmp_path / "corrected" / name).stat().st_size > 10_000
     assert json.loads((tmp_path / "reproduce.json").read_text())["summary"] == json.loads(json.dumps(doc["summary"]))
     for name in REPRODUCE_FIGURES:
         assert (tmp_path / name).stat().st_size > 10_000
@@ -28,9 +34,12 @@ def test_reproduce_keeps_its_schema_and_figures(tmp_path):
             run_dir = tmp_path / "runs" / f"{c}-{v}"
             assert json.loads((run_dir / "results.json").read_text())["case"] == c
             assert len((run_dir / "timeseries.csv").read_text().splitlines()) > 30   # header + about 2 s at 20 Hz
-    # a run through the engine is the in-process run
-    want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0)).results
+    # a run through the engine is the in-process run, in either world
+    want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0,
+                               sea={"wave_load": "paper"}, overrides={"WK_LOAD_MODEL": 0})).results
     assert doc["runs"][5]["rmse"] == want["rmse"] and doc["runs"][5]["max_abs_error"] == want["max_abs_error"]
+    want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0)).results
+    assert doc["corrected"]["runs"][5]["rmse"] == want["rmse"]
 
 
 def test_reproduce_over_seeds_reports_intervals(tmp_path, capsys):

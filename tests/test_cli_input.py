@@ -1,6 +1,7 @@
 """Issue #17: bad input is one line ``wavekeep CMD: …`` on stderr, exit 2 — never a traceback, nothing left behind."""
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import subprocess
@@ -37,12 +38,22 @@ def test_out_not_writable(capsys):
 
 
 def test_out_not_empty_needs_force(tmp_path, capsys):
-    (tmp_path / "results.json").write_text("{}")
+    """README: ``--force`` reuses a folder, removing the previous run's files first; anything else stays."""
+    stale = ["results.json", "timeseries.csv", "time_history.png", "firmware.log", "plant.log", "mission.tlog",
+             "reproduce.json"]                   # a `wavekeep sim` or `reproduce` left these; openloop writes fewer
+    for name in stale:
+        (tmp_path / name).write_text("stale")
     (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "old.log").write_text("mine too")
     refused(capsys, ["openloop", "--duration", "1", "--out", str(tmp_path)], "not empty", "--force")
+    assert all((tmp_path / name).read_text() == "stale" for name in stale)     # refused: nothing touched
     assert main(["openloop", "--duration", "1", "--out", str(tmp_path), "--force"]) == 0
+    written = {"results.json", "timeseries.csv", "openloop.png", "run.json"}
+    assert {p.name for p in tmp_path.iterdir()} == written | {"notes.txt", "mine"}    # no stale run file left
+    assert all((tmp_path / name).read_text() != "stale" for name in written & set(stale))
     assert (tmp_path / "notes.txt").read_text() == "mine"      # not the run's: kept
-    assert (tmp_path / "run.json").is_file()
+    assert (tmp_path / "mine" / "old.log").read_text() == "mine too"     # nor is a sub-folder's
 
 
 @pytest.mark.parametrize("value, words", [("1e9", ("--duration", "one day")), ("0.01", ("--duration", "control")),
@@ -71,6 +82,37 @@ def test_reproduce_refuses_and_leaves_no_folder(tmp_path, capsys):
 def test_sim_ports(tmp_path, capsys, argv, words):
     refused(capsys, ["sim", *argv, "--out", str(tmp_path / "s")], *words)
     assert not (tmp_path / "s").exists()
+
+
+def test_sim_refuses_in_one_line_while_its_default_ports_are_held(tmp_path, monkeypatch, capsys):
+    """Another run holds the default ports (here: ports this test holds, as the defaults): a refused sim still
+    says one line and nothing else, since the ports are chosen only after every check has passed."""
+    from sitl.harness.commands import processes
+
+    with contextlib.ExitStack() as stack:
+        for name, (_, kind, what) in list(processes.SIM_PORTS.items()):
+            held = stack.enter_context(socket.socket(socket.AF_INET, kind))
+            held.bind(("127.0.0.1", 0))
+            if kind == socket.SOCK_STREAM:
+                held.listen()
+            monkeypatch.setitem(processes.SIM_PORTS, name, (held.getsockname()[1], kind, what))
+        refused(capsys, ["sim", "--sea-set", "current.speed=9", "--out", str(tmp_path / "s")], "--sea-set")
+        refused(capsys, ["sim", "--true-vehicle", "no_such_vehicle", "--out", str(tmp_path / "s")], "--true-vehicle")
+    assert not (tmp_path / "s").exists()
+
+
+def test_sim_default_port_is_not_one_given_for_another_process(monkeypatch, capsys):
+    """`--plant-port 14550` with the GCS port left out: the GCS gets a free port, not the plant's."""
+    import argparse
+
+    from sitl.harness.commands import processes
+    from sitl.harness.ports import free_port
+
+    spare = free_port()
+    monkeypatch.setitem(processes.SIM_PORTS, "--gcs-port", (spare, socket.SOCK_DGRAM, "GCS"))
+    ports = processes._sim_ports(argparse.Namespace(plant_port=spare, gcs_port=None, zenoh_port=7000))
+    assert ports["--plant-port"] == spare and ports["--gcs-port"] not in (spare, 7000)
+    assert f"port {spare} (GCS) is taken; using {ports['--gcs-port']}" in capsys.readouterr().err
 
 
 def test_live_udpin_port_in_use(capsys):

@@ -134,6 +134,27 @@ def test_forecast_reaches_the_handoff_and_garbage_does_not(sessions, forecast):
     link.close()
 
 
+def test_a_forecast_that_expires_sooner_than_the_one_held_is_refused_as_superseded(sessions):
+    """docs/forecast.md: a late or reordered forecast that expires before the held one never replaces it
+    (the feed-forward keeps the longer window); one that expires as late or later does."""
+    service, vehicle = sessions
+    handoff = ForecastHandoff()
+    link = ZenohForecastLink(vehicle, "moray", handoff)
+    pub = service.declare_publisher(forecast_key("moray"))
+    time.sleep(0.2)                       # declarations propagate asynchronously (docs/platform-notes.md)
+    sea = Sea.load("W1").components
+    # (seq, valid_until, taken): each is published once the previous one has been received
+    steps = [(3, 60.0, True), (4, 30.0, False), (5, 59.5, False), (6, 60.0, True), (7, 90.0, True)]
+    for n, (seq, until, _) in enumerate(steps, start=1):
+        pub.put(encode_forecast(oracle_forecast(sea, None, None, valid_from=0.0, valid_until=until, seq=seq)))
+        assert wait_for(lambda n=n: link.received >= n, poll=link.poll), (seq, link.counters())
+        held = max(s for s, _, taken in steps[:n] if taken)
+        assert handoff.newest().seq == held, (seq, link.counters())
+        assert handoff.current(45.0).forecast.seq == held     # the FF keeps running on the held one
+    assert link.rejected == {"superseded": 2} and link.accepted == 3
+    link.close()
+
+
 def test_liveliness_of_the_service_is_reported(sessions):
     service, vehicle = sessions
     said = []

@@ -216,37 +216,56 @@ def test_strip_quadrature_integrates_the_pitch_moment_of_a_linear_load():
     assert -((a + b * xs) * xs) @ w * L == pytest.approx(-b * L**3 / 12)
 
 
-def test_wave_load_in_a_uniform_oscillating_flow(vehicle):
+RHO_V = 114.8 / 9.81
+"""ρ∇ (kg) of Table II's vehicle: the displaced water's mass, B / g."""
+
+
+def inertia_masses(model: str) -> tuple[float, float, float]:
+    """The fluid-acceleration masses (surge kg, heave kg) and the pitch coupling c_θ (kg m) of a load
+    model, from Table II by hand: complete ρ∇ + X_u̇, ρ∇ + Z_ẇ and M_u̇ + ρ∇ z_B (z_B = −0.028 m);
+    the paper's X_u̇, Z_ẇ and no coupling."""
+    if model == "paper":
+        return 6.36, 18.68, 0.0
+    return RHO_V + 6.36, RHO_V + 18.68, 0.67 - 0.028 * RHO_V
+
+
+@pytest.mark.parametrize("model", ["complete", "paper"])
+def test_wave_load_in_a_uniform_oscillating_flow(vehicle, model):
     # A very long wave in very deep water is a spatially uniform flow at the body: the load is
-    # M_A a + D(v) v per axis with no pitch moment (level body), the paper's Eq. 11.
+    # (ρ∇ + M_A) a + D(v) v per axis (the paper's Eq. 11 without ρ∇), and in pitch the flow's Munk
+    # moment plus, in the complete model, c_θ a_x.
     A, omega, d = 0.5, 0.2, 1e5
     comps = WaveComponents.from_spectrum_lines(np.array([A]), np.array([omega]), np.array([0.3]), d, False)
     k = comps.k[0]
     t = 7.0
-    tau = wave_load(vehicle, comps, np.array([0.0, 5.0, 0.0]), np.zeros(3), t, strip_nodes(vehicle.length, 3))
+    tau = wave_load(vehicle.with_wave_load(model), comps, np.array([0.0, 5.0, 0.0]), np.zeros(3), t,
+                    strip_nodes(vehicle.length, 3))
     th = -omega * t + 0.3
     att = np.exp(-k * 5.0)
     u, w_dn = A * omega * att * np.cos(th), -A * omega * att * np.sin(th)
     ud, wd_dn = A * omega**2 * att * np.sin(th), A * omega**2 * att * np.cos(th)
-    X = 6.36 * ud + (13.7 + 141 * abs(u)) * u
-    Z = 18.68 * wd_dn + (33 + 190 * abs(w_dn)) * w_dn
+    m_x, m_z, c_th = inertia_masses(model)
+    X = m_x * ud + (13.7 + 141 * abs(u)) * u
+    Z = m_z * wd_dn + (33 + 190 * abs(w_dn)) * w_dn
     np.testing.assert_allclose(tau[:2], [X, Z], rtol=1e-4)
-    # The flow's Munk moment (X_u̇ − Z_ẇ) u w on a body held in it is the only pitch load
-    assert tau[2] == pytest.approx(-(6.36 - 18.68) * u * w_dn, rel=2e-2)  # + a sliver of strip moment
+    # The flow's Munk moment (X_u̇ − Z_ẇ) u w on a body held in it, and the coupling
+    assert tau[2] == pytest.approx(-(6.36 - 18.68) * u * w_dn + c_th * ud, rel=2e-2)  # + a sliver of strip moment
 
 
-def test_a_body_drifting_with_the_flow_feels_only_its_inertia(vehicle):
+@pytest.mark.parametrize("model", ["complete", "paper"])
+def test_a_body_drifting_with_the_flow_feels_only_its_inertia(vehicle, model):
     # Relative-velocity model: moving with the water removes drag and Munk moment; what is
-    # left is the fluid-acceleration (added-mass) force M_A ν̇_p of Eq. 11.
+    # left is the fluid-acceleration force (ρ∇ + M_A) ν̇_p.
     A, omega, d = 0.5, 0.2, 1e5
     comps = WaveComponents.from_spectrum_lines(np.array([A]), np.array([omega]), np.array([0.3]), d, False)
     strips = strip_nodes(vehicle.length, 3)
     eta = np.array([0.0, 5.0, 0.0])
     flow = body_flow(comps, eta, 7.0, strips)
     nu = np.array([flow.u[0].mean(), flow.w[0].mean(), 0.0])
-    tau = wave_load(vehicle, comps, eta, nu, 7.0, strips)
+    tau = wave_load(vehicle.with_wave_load(model), comps, eta, nu, 7.0, strips)
     damping_removed = np.array([(13.7 + 141 * abs(nu[0])) * nu[0], (33 + 190 * abs(nu[1])) * nu[1]])
-    inertia = np.array([6.36 * flow.ax[0].mean(), 18.68 * flow.az[0].mean()])
+    m_x, m_z, _ = inertia_masses(model)
+    inertia = np.array([m_x * flow.ax[0].mean(), m_z * flow.az[0].mean()])
     # τ_E = F_h(ν, flow) − F_h(ν, still): with ν = ν_p the flow term is pure inertia and the
     # still-water term is the vehicle's own damping, which the waves "remove".
     np.testing.assert_allclose(tau[:2], inertia + damping_removed, rtol=1e-6)
@@ -264,18 +283,20 @@ def test_still_water_hydrodynamics_are_eq2_damping_and_added_mass_coriolis(vehic
         np.testing.assert_allclose(hydrodynamic_load(vehicle, u, w, q, None), expected, atol=1e-12)
 
 
-def test_wave_load_on_a_short_body_matches_the_point_load(vehicle):
+@pytest.mark.parametrize("model", ["complete", "paper"])
+def test_wave_load_on_a_short_body_matches_the_point_load(vehicle, model):
     # The body (0.46 m) is short against the waves (≈ 80 m in W1): the strip-integrated
-    # surge and heave loads on a body at rest must equal Eq. 11 at the centre to within ~1 %.
+    # surge and heave loads on a body at rest must equal the point load at the centre to within ~1 %.
     sea = Sea.load("W1")
     t = np.linspace(0, 60, 1201)
-    tau = wave_load(vehicle, sea.components, np.array([0.0, 5.0, 0.0]), np.zeros(3), t,
+    tau = wave_load(vehicle.with_wave_load(model), sea.components, np.array([0.0, 5.0, 0.0]), np.zeros(3), t,
                     strip_nodes(vehicle.length, 3))
     u, w, ud, wd = sea.particle_kinematics(0.0, 5.0, t)
-    X = 6.36 * ud + (13.7 + 141 * np.abs(u)) * u
-    Z = 18.68 * wd + (33 + 190 * np.abs(w)) * w
+    m_x, m_z, c_th = inertia_masses(model)
+    X = m_x * ud + (13.7 + 141 * np.abs(u)) * u
+    Z = m_z * wd + (33 + 190 * np.abs(w)) * w
     assert np.sqrt(np.mean((tau[:, 0] - X) ** 2)) < 0.01 * np.sqrt(np.mean(X**2))
     assert np.sqrt(np.mean((tau[:, 1] - Z) ** 2)) < 0.01 * np.sqrt(np.mean(Z**2))
-    # Its pitch moment: the flow's Munk moment plus the heave load's variation along the body.
-    munk = -(6.36 - 18.68) * u * w
+    # Its pitch moment: the flow's Munk moment and the coupling, plus the heave load's variation along the body.
+    munk = -(6.36 - 18.68) * u * w + c_th * ud
     assert np.sqrt(np.mean((tau[:, 2] - munk) ** 2)) < 0.1 * np.sqrt(np.mean(munk**2))

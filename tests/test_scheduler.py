@@ -215,22 +215,31 @@ def test_task_stats_percentiles():
 
 
 def test_wallclock_no_drift():
+    """The loop keeps its absolute grid while its task works 20 ms a tick: runs start on their slots and the
+    40th run starts near t0 + 39 periods. A loop that slept a period after each tick's work would start it
+    39 × 20 ms = 780 ms late, and its runs anywhere in their periods."""
     clock = WallClock()
     log = []
-    s = Scheduler(clock, 20.0, [Task("ctl", 20.0, recorder(clock, log))])
+    work_ns = 20 * MS
+
+    def ctl(t_sched: int) -> None:
+        start = clock.now_ns()
+        log.append((t_sched, start))
+        while clock.now_ns() - start < work_ns:     # wall-clock work: as long on a loaded machine
+            pass
+
+    s = Scheduler(clock, 20.0, [Task("ctl", 20.0, ctl)])
     s.start()
     t0 = s.t0_ns
-    s.run(until_ns=t0 + 40 * PERIOD)  # 40 ticks, 2 s
-    elapsed = clock.now_ns() - t0
-    assert s.tick == 40
-    assert abs(elapsed - 2_000 * MS) < 50 * MS
+    s.run(stop=lambda: len(log) >= 40)          # 40 runs, about 2 s
     sched = np.array([t for t, _ in log])
     start = np.array([a for _, a in log])
-    assert np.all((sched - t0) % PERIOD == 0)
+    assert len(log) == 40
+    # The grid does not drift: the last run starts near t0 + 39 periods. A slot is lost only to a stall of
+    # over 30 ms (up to two in 2 s with the machine's 2 cores loaded 4-fold); the bound allows seven.
+    late = start[-1] - (t0 + 39 * PERIOD)
+    assert 0 <= late < 400 * MS, f"the 40th run started {late / MS:.1f} ms after t0 + 39 periods"
+    assert np.all((sched - t0) % PERIOD == 0) and np.all(np.diff(sched) >= PERIOD)
     assert np.all(start >= sched)  # never early
-    if len(log) >= 2:  # a slot can only be lost to a >50 ms stall of the whole machine
-        mean_period = (start[-1] - start[0]) / ((sched[-1] - sched[0]) / PERIOD)
-        assert abs(mean_period - PERIOD) < 0.01 * PERIOD
-    # the grid does not drift: the last tick starts near t0 + 39 periods
-    assert sched[-1] == t0 + 39 * PERIOD or s.skipped_slots > 0
-    assert abs(start[-1] - (t0 + 39 * PERIOD)) < 25 * MS
+    lateness = np.median(start - sched)     # under 1 ms loaded; a relative sleep spreads it over the period
+    assert lateness < 5 * MS, f"runs start a median {lateness / MS:.1f} ms after their slots"

@@ -10,13 +10,20 @@
 Added-mass coefficients are stored as positive numbers (the paper's Table II),
 so M_A = [[X_u̇, 0, X_q̇], [0, Z_ẇ, 0], [M_u̇, 0, M_q̇]] with M_u̇ = X_q̇.
 
+The fluid's inertia load in waves comes in two forms (``wave_load_model``,
+docs/models.md): ``complete`` (default), the Froude–Krylov force of the wave's
+pressure gradient ρ∇·a plus the added-mass force M_A·a, with the X_q̇ = M_u̇
+coupling and the Froude–Krylov force's moment about the body origin (Morison's
+C_M = 1 + C_a; Fossen's equations of relative motion in an accelerating flow);
+``paper``, the added-mass force alone (paper Eq. 10/11), kept to reproduce the paper.
+
 The same functions serve the simulated plant (true parameters) and the
 firmware's estimator and feed-forward (nominal parameters).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +32,8 @@ from . import kernels
 from .waves import G, WaveComponents, particle_kinematics_grid
 
 __all__ = [
+    "RHO_SEAWATER",
+    "WAVE_LOAD_MODELS",
     "BodyFlow",
     "J",
     "VehicleParams",
@@ -47,9 +56,22 @@ __all__ = [
 ]
 
 
+RHO_SEAWATER = 1025.0
+"""Sea-water density (kg/m³), the default for a vehicle config's ``water_density``."""
+
+WAVE_LOAD_MODELS = ("complete", "paper")
+"""The fluid-inertia load models (:attr:`VehicleParams.wave_load_model`): ``complete`` is
+(ρ∇ + M_A)·a with the pitch coupling, ``paper`` the paper's M_A·a (Eq. 10/11)."""
+
+
 @dataclass(frozen=True)
 class VehicleParams:
-    """Rigid-body and hydrodynamic parameters (SI units, FRD body frame)."""
+    """Rigid-body and hydrodynamic parameters (SI units, FRD body frame).
+
+    ``displaced_volume`` ∇ (m³; None: B/(ρ g), the volume the buoyancy implies) and
+    ``water_density`` ρ (kg/m³) give the Froude–Krylov mass ρ∇ of the ``complete``
+    :attr:`wave_load_model`; the ``paper`` model leaves it and the X_q̇ coupling out.
+    """
 
     W: float                 # weight (N)
     B: float                 # buoyancy (N)
@@ -69,6 +91,16 @@ class VehicleParams:
     Z_ww: float              # quadratic damping (N s²/m²)
     M_qq: float              # quadratic damping (N m s²)
     g: float = G
+    displaced_volume: float | None = None   # ∇ (m³); None: B / (ρ g)
+    water_density: float = RHO_SEAWATER     # ρ (kg/m³)
+    wave_load_model: str = "complete"       # one of WAVE_LOAD_MODELS
+    # Derived in __post_init__ from the load model. fk_mass m_FK (kg): the Froude–Krylov mass on the fluid's
+    # acceleration, ρ∇ (complete) or 0 (paper). fluid_pitch_coupling c_θ = M_u̇ + ρ∇ z_B (kg m): the pitch
+    # moment per unit mean surge acceleration of the fluid — the added-mass coupling M_u̇ = X_q̇, and the
+    # moment about the body origin of the Froude–Krylov surge force, which acts at the buoyancy centre's
+    # height z_B (r × F: a forward push above the origin pitches the nose down); 0 in the paper's model.
+    fk_mass: float = field(init=False)
+    fluid_pitch_coupling: float = field(init=False)
     M_RB: np.ndarray = field(init=False, repr=False)
     M_A: np.ndarray = field(init=False, repr=False)
     M: np.ndarray = field(init=False, repr=False)
@@ -78,6 +110,13 @@ class VehicleParams:
     kernel_params: np.ndarray = field(init=False, repr=False)   # the compiled kernels' vector (bridge.models.kernels)
 
     def __post_init__(self) -> None:
+        if self.wave_load_model not in WAVE_LOAD_MODELS:
+            raise ValueError(f"wave_load_model must be one of {', '.join(WAVE_LOAD_MODELS)}, "
+                             f"got {self.wave_load_model!r}")
+        complete = self.wave_load_model == "complete"
+        object.__setattr__(self, "fk_mass", self.rho_V if complete else 0.0)
+        object.__setattr__(self, "fluid_pitch_coupling", self.X_qdot + self.rho_V * float(self.r_B[2]) if complete
+                           else 0.0)
         m = self.mass
         x_g, z_g = float(self.r_G[0]), float(self.r_G[2])
         # Rigid-body inertia about the body origin (Fossen 2011, Eq. 3.44, planar part)
@@ -96,7 +135,7 @@ class VehicleParams:
         r_G, r_B = self.r_G, self.r_B
         kp = [self.W, self.B, self.height, r_G[0], r_G[2], r_B[0], r_B[2], self.X_udot, self.Z_wdot, self.X_qdot,
               self.X_u, self.Z_w, self.M_q, self.X_uu, self.Z_ww, self.M_qq, M_RB[0, 0], M_RB[0, 2], M_RB[1, 1],
-              M_RB[1, 2], *np.linalg.inv(M).ravel()]
+              M_RB[1, 2], *np.linalg.inv(M).ravel(), self.fk_mass, self.fluid_pitch_coupling]
         object.__setattr__(self, "kernel_params", np.array(kp, dtype=float))
         kernels.warm_up()   # load the compiled kernels now, not on a real-time loop's first ticks
 
@@ -104,6 +143,17 @@ class VehicleParams:
     def mass(self) -> float:
         """Dry mass m = W / g (kg)."""
         return self.W / self.g
+
+    @property
+    def rho_V(self) -> float:
+        """ρ∇ (kg): the displaced water's mass, ρ · ``displaced_volume``, or B / g when the volume is not stated."""
+        if self.displaced_volume is None:
+            return self.B / self.g
+        return self.water_density * self.displaced_volume
+
+    def with_wave_load(self, model: str) -> VehicleParams:
+        """The same vehicle under another fluid-inertia load model (one of :data:`WAVE_LOAD_MODELS`)."""
+        return self if model == self.wave_load_model else replace(self, wave_load_model=model)
 
     @property
     def D_L(self) -> np.ndarray:
@@ -121,7 +171,8 @@ class VehicleParams:
                    length=mp["length"], height=mp["height"],
                    X_udot=am["X_udot"], Z_wdot=am["Z_wdot"], M_qdot=am["M_qdot"],
                    X_qdot=am["X_qdot"], X_u=dp["X_u"], Z_w=dp["Z_w"], M_q=dp["M_q"], X_uu=dp["X_uu"],
-                   Z_ww=dp["Z_ww"], M_qq=dp["M_qq"])
+                   Z_ww=dp["Z_ww"], M_qq=dp["M_qq"], displaced_volume=mp.get("displaced_volume"),
+                   water_density=mp.get("water_density", RHO_SEAWATER))
 
     @classmethod
     def load(cls, path: str | Path) -> VehicleParams:
@@ -262,17 +313,21 @@ def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tupl
     """Hydrodynamic force on the moving body (N, N, N m), excluding −M_A ν̇.
 
     The relative-velocity Morison strip model (Fossen 2011 §10.3, equations of
-    relative motion, with the fluid's inertia force of paper Eq. 11). Per unit
-    length at strip x', with ν_r = ν − ν_p(x'):
+    relative motion in a non-uniform, accelerating flow; Morison's inertia
+    coefficient C_M = 1 + C_a). Per unit length at strip x', with ν_r = ν − ν_p(x')
+    and m_FK = ρ∇ the displaced water's mass spread evenly over the strips:
 
-        X' = X_u̇ u̇_p − (X_u + X_u|u| |u_r|) u_r,   Z' = Z_ẇ ẇ_p − (Z_w + Z_w|w| |w_r|) w_r
+        X' = (m_FK + X_u̇) u̇_p − (X_u + X_u|u| |u_r|) u_r,   Z' = (m_FK + Z_ẇ) ẇ_p − (Z_w + Z_w|w| |w_r|) w_r
 
-    integrated over the length for X and Z, with the pitch moment −∫ Z' x' dx';
-    plus the added-mass Coriolis force −C_A(ν̄_r) ν̄_r on the mean relative
-    velocity (Munk moment) and the rotational damping −(M_q + M_q|q| |q|) q.
+    integrated over the length for X and Z, with the pitch moment −∫ Z' x' dx'
+    plus c_θ ū̇_p, c_θ = M_u̇ + ρ∇ z_B (:attr:`VehicleParams.fluid_pitch_coupling`:
+    the added-mass coupling and the Froude–Krylov surge force's lever at the
+    buoyancy centre); plus the added-mass Coriolis force −C_A(ν̄_r) ν̄_r on the
+    mean relative velocity (Munk moment) and the rotational damping
+    −(M_q + M_q|q| |q|) q. In the ``paper`` load model m_FK = c_θ = 0 (Eq. 10/11).
     ``flow`` is a :meth:`BodyFlow.stage` tuple, or None for still water, where
     this is exactly −C_A(ν)ν − D(ν)ν of paper Eq. 2; for a body at rest it is
-    the wave load τ_E of Eq. 11 (plus the flow's Munk moment).
+    the wave load τ_E (plus the flow's Munk moment).
     """
     if flow is None:
         ur, wr = u, w
@@ -281,15 +336,18 @@ def hydrodynamic_load(p: VehicleParams, u: float, w: float, q: float, flow: tupl
         Mh = 0.0
     else:
         xs, wts, up, wp, ax, az = flow
-        X = Z = Mh = ub = wb = 0.0
+        m_x, m_z = p.X_udot + p.fk_mass, p.Z_wdot + p.fk_mass   # inertia on the fluid's acceleration (kg)
+        X = Z = Mh = ub = wb = axb = 0.0
         for xj, wj, upj, wpj, axj, azj in zip(xs, wts, up, wp, ax, az, strict=False):
             urj, wrj = u - upj, w - wpj
-            fz = p.Z_wdot * azj - (p.Z_w + p.Z_ww * abs(wrj)) * wrj
-            X += wj * (p.X_udot * axj - (p.X_u + p.X_uu * abs(urj)) * urj)
+            fz = m_z * azj - (p.Z_w + p.Z_ww * abs(wrj)) * wrj
+            X += wj * (m_x * axj - (p.X_u + p.X_uu * abs(urj)) * urj)
             Z += wj * fz
             Mh -= wj * xj * fz
             ub += wj * upj
             wb += wj * wpj
+            axb += wj * axj
+        Mh += p.fluid_pitch_coupling * axb
         ur, wr = u - ub, w - wb
     pAx, pAz = p.X_udot * ur + p.X_qdot * q, p.Z_wdot * wr     # added-mass momenta of the relative motion
     X -= pAz * q
@@ -425,14 +483,15 @@ def strip_nodes(length: float, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def wave_load(p: VehicleParams, waves: WaveComponents, eta, nu, t, strips: tuple[np.ndarray, np.ndarray],
               current_x: float = 0.0):
-    """The wave-induced load τ_E (N, N, N m) on a body at pose η moving with ν — paper Eq. 11, generalised.
+    """The wave-induced load τ_E (N, N, N m) on a body at pose η moving with ν — paper Eq. 11, completed.
 
     τ_E = F_h(ν, flow) − F_h(ν, still water) with F_h the :func:`hydrodynamic_load`:
-    everything the waves add to the forces of Eq. 2. For ν = 0 it is Eq. 11
-    strip by strip, M_A ν̇_p + (D_L + D_Q|ν_p|) ν_p for surge and heave and
-    M_E = −∫ Z_E′(x′) x′ dx′ for pitch (the sign of r × F: a downward load ahead
-    of the centre pitches the nose down; the paper prints it without), plus
-    the Munk moment of the flow. ``t`` is a time or an array of T times
+    everything the waves add to the forces of Eq. 2. For ν = 0 it is, strip by
+    strip, (ρ∇ + M_A) ν̇_p + (D_L + D_Q|ν_p|) ν_p for surge and heave (the paper's
+    Eq. 11 without ρ∇ in the ``paper`` load model) and M_E = −∫ Z_E′(x′) x′ dx′
+    + c_θ ū̇_p for pitch (the sign of r × F: a downward load ahead of the centre
+    pitches the nose down; the paper prints it without), plus the Munk moment of the flow. ``t`` is a time or
+    an array of T times
     (result (3,) or (T, 3)). ``current_x``: a steady current (m/s, NED north), see :func:`body_flow`.
     """
     flow = body_flow(waves, eta, t, strips, current_x)

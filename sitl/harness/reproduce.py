@@ -1,13 +1,21 @@
 """The paper's results table: W1–W3 × {C-PD, C-PD+FF exact forecast, C-PD+FF 15 dB forecast}.
 
-Runs the nine in-process missions as a small built-in campaign on the campaign
-engine (:mod:`.campaign`: a loopback Dask LocalCluster, one worker per core, or
-an existing cluster), prints the table in the paper's terms (RMSE and maximum
+The paper's table is flown in **the paper's world** (:data:`PAPER_WORLD`): the
+plant applies the paper's wave load (Eq. 10/11, the added-mass force alone) and
+the firmware's nominal model does the same (``WK_LOAD_MODEL`` 0), so the table
+stays reproducible. The same nine missions are flown again in **the corrected
+world** (the default: Froude–Krylov + added mass, docs/models.md) and that table
+is given beside it.
+
+Runs the missions as a small built-in campaign on the campaign engine
+(:mod:`.campaign`: a loopback Dask LocalCluster, one worker per core, or an
+existing cluster), prints the tables in the paper's terms (RMSE and maximum
 error per DoF, reductions against C-PD in %, power) beside the paper's
-published figures, and writes ``reproduce.json`` and the figures. With
-``seeds=N`` (``wavekeep reproduce --seeds N``) it runs the same grid over seeds
-1..N as a campaign and reports each reduction's mean with a 95 % bootstrap
-interval (:func:`reproduce_seeds`).
+published figures, and writes ``reproduce.json`` and the figures (the corrected
+world's under ``corrected/``). With ``seeds=N`` (``wavekeep reproduce --seeds
+N``) it runs the paper's grid in the paper's world over seeds 1..N as a campaign
+and reports each reduction's mean with a 95 % bootstrap interval
+(:func:`reproduce_seeds`).
 """
 from __future__ import annotations
 
@@ -29,7 +37,8 @@ from .results import TIMESERIES_COLUMNS, RunResult, write_results
 from .spec import PAPER_CASES as CASES
 from .spec import PAPER_VARIANTS
 
-__all__ = ["PAPER", "format_reproduce_table", "paper_campaign", "reproduce", "reproduce_seeds", "summarise",
+__all__ = ["PAPER", "PAPER_WORLD", "WORLDS", "format_reproduce", "format_reproduce_table", "paper_campaign",
+           "reproduce", "reproduce_seeds", "summarise",
            "summary_statements"]
 
 VARIANT_KEYS = {("cpd", None): "cpd", ("cpd_ff", None): "ff_exact", ("cpd_ff", 15.0): "ff_snr15"}
@@ -41,6 +50,19 @@ PAPER: dict[str, Any] = {
     "max_error_reduction_pct_by_dof": {"surge": 22.0, "heave": 11.8, "pitch": 50.1},
     "note": "Walker et al. §V; the paper's sea states are measured Cefas spectra (realised Hs ≈ 2.3–2.6 m).",
 }
+
+
+PAPER_WORLD: dict[str, dict[str, Any]] = {"sea": {"wave_load": "paper"}, "overrides": {"WK_LOAD_MODEL": 0.0}}
+"""The paper's world: its wave load (Eq. 10/11: the added-mass force alone, no Froude–Krylov force) in the
+plant (the sea config's ``wave_load``) and in the firmware's nominal model (``WK_LOAD_MODEL``)."""
+
+WORLDS: dict[str, tuple[str, dict[str, dict[str, Any]]]] = {
+    "paper": ("the paper's world: its wave load, Eq. 10/11 (added mass only), in the plant and the firmware's "
+              "model (WK_LOAD_MODEL 0)", PAPER_WORLD),
+    "corrected": ("the corrected world (the default): Froude-Krylov + added mass, (rho V + M_A) a, with the "
+                  "pitch coupling, in the plant and the firmware's model", {"sea": {}, "overrides": {}}),
+}
+"""reproduce's two worlds: a caption and the RunSpec fields that make each."""
 
 
 def reduction_pct(base: float, new: float) -> float:
@@ -131,11 +153,15 @@ def format_reproduce_table(results: list[dict], summary: dict) -> str:
     return "\n".join(lines)
 
 
-def _tasks(seed: int | None, duration: float | None, plots: bool,
-           overrides: dict[str, float] | None = None) -> list[CampaignTask]:
-    """The nine missions; with ``plots`` each brings its time series back (Figs. 4 and 5, DIR/runs/)."""
-    return [CampaignTask(f"{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}", VARIANT_KEYS[(v.controller, v.snr_db)],
-                         replace(v, case=c, seed=seed, duration=duration, overrides=dict(overrides or {})),
+def _tasks(seed: int | None, duration: float | None, plots: bool, overrides: dict[str, float] | None = None,
+           world: str = "paper") -> list[CampaignTask]:
+    """The nine missions in one of :data:`WORLDS`; with ``plots`` each brings its time series back (Figs. 4
+    and 5). The user's ``overrides`` go on top of the world's."""
+    fields = WORLDS[world][1]
+    params = {**fields["overrides"], **(overrides or {})}
+    return [CampaignTask(f"{world}:{c}:{VARIANT_KEYS[(v.controller, v.snr_db)]}",
+                         VARIANT_KEYS[(v.controller, v.snr_db)],
+                         replace(v, case=c, seed=seed, duration=duration, overrides=params, sea=dict(fields["sea"])),
                          keep_timeseries=plots)
             for c in CASES for v in PAPER_VARIANTS]
 
@@ -143,18 +169,22 @@ def _tasks(seed: int | None, duration: float | None, plots: bool,
 def reproduce(out: str | Path, seed: int | None = None, duration: float | None = None, workers: int | None = None,
               plots: bool = True, progress=print, scheduler: str | None = None,
               overrides: dict[str, float] | None = None) -> dict:
-    """Run the nine missions on the campaign engine, write DIR/reproduce.json (+ figures), return the document.
+    """Run the nine missions in each of :data:`WORLDS` on the campaign engine, write DIR/reproduce.json
+    (+ figures), return the document: the paper's world's ``runs`` and ``summary``, and the corrected
+    world's under ``corrected``.
 
     ``out`` is created only when the runs are done: a failed or interrupted reproduction leaves nothing."""
     out = Path(out)
-    jobs = _tasks(seed, duration, plots, overrides)
+    by_world = {w: _tasks(seed, duration, plots, overrides, w) for w in WORLDS}
+    jobs = [t for ts in by_world.values() for t in ts]
     workers = workers or min(len(jobs), os.cpu_count() or 1)
     t0 = time.perf_counter()
     got: dict[str, TaskOutcome] = {}
 
     def collect(task: CampaignTask, outcome: TaskOutcome) -> None:
         got[task.mission_id] = outcome
-        progress(f"[{len(got)}/{len(jobs)}] {task.spec.case} {task.spec.label}: {outcome.row['status']}")
+        world = task.mission_id.split(":", 1)[0]
+        progress(f"[{len(got)}/{len(jobs)}] {world} world, {task.spec.case} {task.spec.label}: {outcome.row['status']}")
 
     with dask_client(scheduler, workers, say=progress) as client:
         execute_tasks(client, jobs, collect)
@@ -163,26 +193,39 @@ def reproduce(out: str | Path, seed: int | None = None, duration: float | None =
         raise RuntimeError("reproduce: missions failed: " + "; ".join(failed))
     wall = time.perf_counter() - t0
     empty = np.empty((0, len(TIMESERIES_COLUMNS)))
-    runs = []
-    for t in jobs:
-        outcome = got[t.mission_id]
-        assert outcome.results is not None   # failures were raised above
-        runs.append(RunResult(outcome.results, empty if outcome.timeseries is None else outcome.timeseries))
-    results = [r.results for r in runs]
-    summary = summarise(results)
-    doc = {"runs": results, "summary": summary, "paper": PAPER, "wall_time_s": wall}
+    runs: dict[str, list[RunResult]] = {}
+    for world, tasks in by_world.items():
+        runs[world] = []
+        for t in tasks:
+            outcome = got[t.mission_id]
+            assert outcome.results is not None   # failures were raised above
+            runs[world].append(RunResult(outcome.results, empty if outcome.timeseries is None else outcome.timeseries))
+    results = {w: [r.results for r in rs] for w, rs in runs.items()}
+    doc = {"world": WORLDS["paper"][0], "runs": results["paper"], "summary": summarise(results["paper"]),
+           "corrected": {"world": WORLDS["corrected"][0], "runs": results["corrected"],
+                         "summary": summarise(results["corrected"])},
+           "paper": PAPER, "wall_time_s": wall}
     out.mkdir(parents=True, exist_ok=True)
     (out / "reproduce.json").write_text(json.dumps(doc, indent=2))
     if plots:
-        for t, run in zip(jobs, runs, strict=True):
-            write_results(run, out / "runs" / f"{t.spec.case}-{t.variant}")
-        plot_reproduce(runs, out)
+        for world, folder in (("paper", out), ("corrected", out / "corrected")):
+            for t, run in zip(by_world[world], runs[world], strict=True):
+                write_results(run, folder / "runs" / f"{t.spec.case}-{t.variant}")
+            plot_reproduce(runs[world], folder)
     return doc
 
 
+def format_reproduce(doc: dict) -> str:
+    """Both worlds' tables, each under its caption: the paper's first (its figures are the paper's)."""
+    return "\n\n".join(f"In {caption}:\n{format_reproduce_table(d['runs'], d['summary'])}"
+                        for caption, d in ((doc["world"], doc), (doc["corrected"]["world"], doc["corrected"])))
+
+
 def paper_campaign(seeds: int, duration: float | None = None) -> CampaignSpec:
-    """The paper's grid over seeds 1..``seeds``: W1–W3 × {C-PD, FF exact, FF 15 dB}, against C-PD."""
-    variants = tuple(Variant(VARIANT_KEYS[(v.controller, v.snr_db)], v.controller, v.forecast, v.snr_db)
+    """The paper's grid over seeds 1..``seeds`` in the paper's world (:data:`PAPER_WORLD`): W1–W3 ×
+    {C-PD, FF exact, FF 15 dB}, against C-PD."""
+    variants = tuple(Variant(VARIANT_KEYS[(v.controller, v.snr_db)], v.controller, v.forecast, v.snr_db,
+                             overrides=dict(PAPER_WORLD["overrides"]), sea=dict(PAPER_WORLD["sea"]))
                      for v in PAPER_VARIANTS)
     return CampaignSpec(f"reproduce_{seeds}_seeds", CASES, tuple(range(1, seeds + 1)), variants, "cpd", duration)
 
@@ -198,7 +241,7 @@ def reproduce_seeds(out: str | Path, seeds: int, duration: float | None = None, 
 def format_paper_comparison(summary: dict) -> str:
     """The headline reductions over seeds beside the paper's single-run figures."""
     o = summary["overall"]
-    lines = []
+    lines = [f"In {WORLDS['paper'][0]}:"]
     for key, name in (("ff_exact", "exact forecast"), ("ff_snr15", "15 dB forecast")):
         if key in o:
             lo, hi = o[key]["reduction_pct_ci95"]

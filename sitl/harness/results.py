@@ -14,14 +14,14 @@ from typing import Any
 import numpy as np
 
 from bridge.models.waves import WaveComponents, elevation
-from firmware_py.tick_columns import TICK_COLUMNS
+from firmware_py.tick_columns import TICK_COLUMNS, SolveStatus
 from sitl.sea import Sea
 
 from .metrics import station_keeping_metrics
 from .spec import RunSpec
 
-__all__ = ["TIMESERIES_COLUMNS", "RunResult", "ekf_consistency", "elevation_along", "mission_results",
-           "write_results"]
+__all__ = ["TIMESERIES_COLUMNS", "RunResult", "controller_summary", "ekf_consistency", "elevation_along",
+           "mission_results", "write_results"]
 
 TIMESERIES_COLUMNS = (
     "t", "x", "z", "theta", "u", "w", "q",             # truth at the tick
@@ -99,9 +99,30 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
                                       np.sqrt(np.mean(estimate_error**2, axis=0)).tolist(), strict=True)),
                 **ekf_consistency(log)},
         "ff_active_fraction": float(np.mean(log[:, c["ff_active"]])),
+        "saturated_fraction": float(np.mean(log[:, c["saturated"]] > 0.5)),   # ticks with an axis at ±τ_max
+        "controller": controller_summary(spec.controller, log),
         "control_tick": control_stats.get("tasks", {}).get("control", {}).get("compute"),
         "faults": control_stats.get("faults"),
     }
+
+
+def controller_summary(law: str, log: np.ndarray) -> dict[str, Any]:
+    """The law's solver over the mission, from the ``ctrl_*`` columns: ticks per status (fallbacks with their
+    reason), their share, and the iterations' and compute time's p50, p99 and largest (of ticks it solved in)."""
+    c = COLUMN
+    status = log[:, c["ctrl_status"]].astype(int)
+    counts = {s.name.lower(): int(np.sum(status == s)) for s in SolveStatus if s != SolveStatus.NONE}
+    out: dict[str, Any] = {"law": law}
+    ran = status != SolveStatus.NONE
+    if not ran.any():
+        return out
+    fallbacks = {k: v for k, v in counts.items() if k != "solved"}
+    stat = lambda v: {"p50": float(np.percentile(v, 50)), "p99": float(np.percentile(v, 99)),  # noqa: E731
+                      "max": float(np.max(v))}
+    out.update(ticks=int(ran.sum()), solved=counts["solved"], fallbacks=fallbacks,
+               fallback_share=float(sum(fallbacks.values()) / ran.sum()),
+               iterations=stat(log[ran, c["ctrl_iter"]]), solve_ms=stat(log[ran, c["ctrl_ms"]]))
+    return out
 
 
 def write_results(result: RunResult, out: str | Path) -> Path:

@@ -91,13 +91,14 @@ class DSWPFeeder:
 
 
 def build_mission(spec: RunSpec, params: ParameterTable | None = None, initial_eta=None,
-                  clock: Clock | None = None) -> MissionSetup:
+                  clock: Clock | None = None, sea: Sea | None = None) -> MissionSetup:
     """Build sea, plant, in-process HAL and firmware for one mission (see :func:`run_mission`).
 
     ``params`` is the parameter table to start from (default: ``configs/firmware/params.yaml``);
     the spec's overrides go on top. ``clock`` paces the firmware (default: lockstep simulated time).
+    ``sea`` flies a sea built by the caller (a regular wave, still water) instead of the spec's case.
     """
-    sea = Sea.load(spec.case, seed=spec.seed, overrides=spec.sea)
+    sea = Sea.load(spec.case, seed=spec.seed, overrides=spec.sea) if sea is None else sea
     mcfg = load_mission_config(spec.mission)
     vcfg = load_vehicle_config(spec.vehicle)
     params = (params or load_params()).copy()
@@ -144,15 +145,15 @@ def take_off(m: MissionSetup) -> None:
 
 
 def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: bool = False,
-                initial_eta=None) -> RunResult:
+                initial_eta=None, sea: Sea | None = None) -> RunResult:
     """Fly one mission and return its results and per-tick time series.
 
     The spec's ``seed`` sets the sea realisation (default: the sea config's)
     and, through it, the sensor noise and forecast error streams.
     ``initial_eta`` starts the vehicle at another pose [x, z, θ] than the
-    setpoint (a setpoint step).
+    setpoint (a setpoint step); ``sea`` as in :func:`build_mission`.
     """
-    m = build_mission(spec, params, initial_eta)
+    m = build_mission(spec, params, initial_eta, sea=sea)
     sea, plant, hal, fw, forecast, setpoint, rate = m.sea, m.plant, m.hal, m.firmware, m.forecast, m.setpoint, m.rate_hz
     duration = m.duration_s
     n = int(round(duration * rate))

@@ -19,10 +19,11 @@ from bridge.configfile import ConfigError, Field, validate
 
 __all__ = ["CONTROLLERS", "DSWP_SCHEMA", "FORECAST_SOURCES", "PAPER_CASES", "PAPER_VARIANTS", "RunSpec"]
 
-CONTROLLERS = ("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob")
+CONTROLLERS = ("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob", "mpc")
 """``cpd``: cascaded PD feedback alone; ``cpd_ff``: with the wave feed-forward (paper Eq. 12);
 ``cpd_dob``, ``cpd_ff_dob``: the same + the aided EKF's disturbance estimate fed back (a disturbance
-observer, ``WK_DOB_ENABLE``; docs/estimator.md)."""
+observer, ``WK_DOB_ENABLE``; docs/estimator.md); ``mpc``: the preview MPC on the forecast's horizon
+(``WK_CTRL_LAW`` 1; docs/mpc.md), which flies the C-PD+FF command when a solve fails."""
 
 FORECAST_SOURCES = ("oracle", "dswp")
 """``oracle``: the true sea's components, optionally with the paper's injected error (``snr_db``);
@@ -88,13 +89,19 @@ class RunSpec:
 
     @property
     def ff(self) -> bool:
-        """Does the firmware run the wave feed-forward?"""
-        return self.controller in ("cpd_ff", "cpd_ff_dob")
+        """Does the firmware use the forecast (the wave feed-forward, or the MPC with its FF fallback)?"""
+        return self.controller in ("cpd_ff", "cpd_ff_dob", "mpc")
+
+    @property
+    def mpc(self) -> bool:
+        """Does the firmware fly the preview MPC?"""
+        return self.controller == "mpc"
 
     def implied_params(self) -> dict[str, float]:
-        """The firmware parameters the controller choice sets, on top of the overrides: FF and DOB on or
-        off, and the aided estimator, whose disturbance states a disturbance observer feeds back."""
-        implied = {"WK_FF_ENABLE": float(self.ff), "WK_DOB_ENABLE": float(self.dob)}
+        """The firmware parameters the controller choice sets, on top of the overrides: the law, FF and
+        DOB on or off, and the aided estimator, whose disturbance states a disturbance observer feeds back."""
+        implied = {"WK_FF_ENABLE": float(self.ff), "WK_DOB_ENABLE": float(self.dob),
+                   "WK_CTRL_LAW": float(self.mpc)}
         if self.dob:
             implied["WK_EKF_MODE"] = 1.0
         return implied
@@ -131,13 +138,15 @@ class RunSpec:
 
     @property
     def label(self) -> str:
-        """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``."""
+        """The name in tables and figures: ``C-PD``, ``C-PD+FF exact``, ``C-PD+FF 15 dB``, ``C-PD+FF DSWP``,
+        ``MPC exact``…"""
         dob = "+DOB" if self.dob else ""
         if not self.ff:
             return "C-PD" + dob
+        law = "MPC" if self.mpc else f"C-PD+FF{dob}"
         if self.forecast == "dswp":
-            return f"C-PD+FF{dob} DSWP"
-        return f"C-PD+FF{dob} exact" if self.snr_db is None else f"C-PD+FF{dob} {self.snr_db:g} dB"
+            return f"{law} DSWP"
+        return f"{law} exact" if self.snr_db is None else f"{law} {self.snr_db:g} dB"
 
 
 PAPER_CASES = ("W1", "W2", "W3")

@@ -80,7 +80,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     if args.seeds is not None:
         return _reproduce_seeds(args)
     from ..provenance import write_run_record
-    from ..reproduce import format_reproduce_table, reproduce
+    from ..reproduce import format_reproduce, reproduce
 
     o.check_duration(args.duration, "station_keeping")
     overrides = o.overrides(args)
@@ -94,8 +94,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"wavekeep reproduce: interrupted; stopped the cluster, wrote nothing to {out}", file=sys.stderr)
         return 130
     write_run_record(out, args.argv, seed=args.seed, parameter_overrides=overrides, duration_s=args.duration)
-    print(format_reproduce_table(doc["runs"], doc["summary"]))
-    print(f"{len(doc['runs'])} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
+    print(format_reproduce(doc))
+    n_runs = len(doc["runs"]) + len(doc["corrected"]["runs"])
+    print(f"{n_runs} runs in {doc['wall_time_s']:.1f} s; wrote {Path(out) / 'reproduce.json'}, run.json"
           + ("" if args.no_plots else " and the figures"))
     return 0
 

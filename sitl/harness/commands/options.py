@@ -223,8 +223,8 @@ def run_spec(args: argparse.Namespace) -> Any:
 
     forecast = getattr(args, "forecast", "oracle")
     snr = getattr(args, "forecast_snr_db", None)
-    if snr is not None and (args.controller not in ("cpd_ff", "cpd_ff_dob") or forecast != "oracle"):
-        raise UsageError("--forecast-snr-db applies only to --controller cpd_ff(_dob) with --forecast oracle "
+    if snr is not None and (args.controller not in ("cpd_ff", "cpd_ff_dob", "mpc") or forecast != "oracle"):
+        raise UsageError("--forecast-snr-db applies only to --controller cpd_ff(_dob) or mpc with --forecast oracle "
                          f"(got --controller {args.controller} --forecast {forecast})")
     check_duration(getattr(args, "duration", None), args.mission)
     world = world_options(args)
@@ -298,9 +298,12 @@ def add_common(p: argparse.ArgumentParser, vehicle: bool = True) -> None:
 
 def add_controller(p: argparse.ArgumentParser, forecast_help: str = "forecast source") -> None:
     """--controller, --forecast, --forecast-snr-db."""
-    p.add_argument("--controller", choices=("cpd", "cpd_ff", "cpd_dob", "cpd_ff_dob"), default="cpd_ff",
+    from ..spec import CONTROLLERS
+
+    p.add_argument("--controller", choices=CONTROLLERS, default="cpd_ff",
                    help="cpd: cascaded PD feedback; cpd_ff: with the wave feed-forward; *_dob: + the estimated "
-                   "disturbance fed back (disturbance observer)")
+                   "disturbance fed back (disturbance observer); mpc: the preview MPC on the forecast's horizon "
+                   "(docs/mpc.md)")
     p.add_argument("--forecast", choices=("oracle", "dswp"), default="oracle",
                    help=f"{forecast_help}: oracle (the sea's own components) or dswp (predicted from the up-wave buoy)")
     p.add_argument("--forecast-snr-db", type=snr_db, default=None,

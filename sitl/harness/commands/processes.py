@@ -74,16 +74,29 @@ SIM_PORTS = {"--plant-port": (9002, socket.SOCK_DGRAM, "plant"), "--gcs-port": (
 """``wavekeep sim``'s loopback ports: option → (default, socket kind, what uses it)."""
 
 
-def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
-    """The ports given, and for each left out its default, or a free port (said on stderr) if that is taken."""
-    from ..ports import port_or_free
+def _given_ports(args: argparse.Namespace) -> dict[str, int | None]:
+    """The port options as given (None where left out), by option name."""
+    return {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
 
+
+def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
+    """The ports given, and for each left out its default, or a free port (said on stderr) if that is taken,
+    by another program or by a port given for another process."""
+    from ..ports import free_port, port_or_free
+
+    given = _given_ports(args)
+    used = {port for port in given.values() if port is not None}
     ports = {}
     for name, (default, kind, what) in SIM_PORTS.items():
-        given = getattr(args, name[2:].replace("-", "_"))
-        ports[name] = given if given is not None else port_or_free(default, kind)
-        if given is None and ports[name] != default:
-            print(f"wavekeep sim: port {default} ({what}) is taken; using {ports[name]} ({name})", file=sys.stderr)
+        port = given[name]
+        if port is None:
+            port = port_or_free(default, kind)
+            while port in used:
+                port = free_port(kind)
+            used.add(port)
+            if port != default:
+                print(f"wavekeep sim: port {default} ({what}) is taken; using {port} ({name})", file=sys.stderr)
+        ports[name] = port
     return ports
 
 
@@ -93,13 +106,12 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from ..metrics import format_table
     from ..provenance import write_run_record
 
-    given = {name: getattr(args, name[2:].replace("-", "_")) for name in SIM_PORTS}
+    given = _given_ports(args)
     names = [name for name, port in given.items() if port is not None]
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             if given[a] == given[b]:
                 raise o.UsageError(f"{a} and {b} are both {given[a]}: each process needs its own port")
-    ports = _sim_ports(args)
     spec = o.run_spec(args)
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
@@ -112,6 +124,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise o.UsageError(str(exc)) from None
     out = o.check_out(args.out, force=args.force)
+    ports = _sim_ports(args)      # after every check: a refused command says one line, whatever holds the ports
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
     try:

@@ -1,0 +1,106 @@
+"""The vehicle model along a control horizon: a rollout and its linearisation (for a preview MPC).
+
+A horizon is N steps of lengths Δ_k (s). Over step k the thrusters' wrench moves from τ_k to the
+demand v_k as first-order motors do under the held command that reaches v_k at the step's end,
+
+    τ(s) = v_{k−1} + α(s) (v_k − v_{k−1}),   α(s) = (1 − e^{−s/t_m}) / (1 − e^{−Δ_k/t_m}),
+
+with τ_0 = v_{−1} the wrench the motors give now; the command itself is
+c_k = (v_k − e_k v_{k−1}) / (1 − e_k), e_k = e^{−Δ_k/t_m}, what the mixer's lag compensation sends
+(:mod:`firmware_py.mixer`). The body follows paper Eq. 2 with the relative-velocity wave loads
+(:func:`~bridge.models.vehicle.state_rates`) in the flow sampled at each step's RK4 stage times, plus a
+constant disturbance wrench d (N, N, N m), integrated by one RK4 step per horizon step.
+
+:func:`linearise_horizon` returns the states x_0..x_N of that rollout and, per step, the Jacobians of
+x_{k+1} = F_k(x_k, v_{k−1}, v_k): A_k = ∂F_k/∂x_k, B_k = ∂F_k/∂v_k, E_k = ∂F_k/∂v_{k−1}, by forward
+differences (state step 1e-6·max(1, |x_j|), input step 1e-6·max(1, |v_j|) N). The compiled kernel
+(:func:`~bridge.models.kernels.horizon_arr`) when enabled, else the reference below (the same arithmetic).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import kernels
+from .vehicle import BodyFlow, VehicleParams, rk4_step
+
+__all__ = ["horizon_grid", "lag_profile", "linearise_horizon", "stage_times"]
+
+
+def lag_profile(dt: np.ndarray, t_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(α(Δ_k/2), e_k) per step: the share of the step's thrust change reached at its middle, and e^{−Δ_k/t_m}."""
+    dt = np.asarray(dt, dtype=float)
+    e = np.exp(-dt / t_m)
+    return (1.0 - np.exp(-0.5 * dt / t_m)) / (1.0 - e), e
+
+
+def _stages(v_prev, v, a_mid, d) -> np.ndarray:
+    """The wrench at a step's three RK4 stage times (start, middle, end), plus the disturbance: (3, 3)."""
+    return np.array([v_prev + d, v_prev + a_mid * (v - v_prev) + d, v + d])
+
+
+def _step(p: VehicleParams, x, h, v_prev, v, a_mid, d, flow: BodyFlow | None):
+    return rk4_step(p, x, h, _stages(v_prev, v, a_mid, d), flow)
+
+
+def linearise_horizon(p: VehicleParams, x0: np.ndarray, tau0: np.ndarray, V: np.ndarray, dt: np.ndarray,
+                      a_mid: np.ndarray, d: np.ndarray, flow: BodyFlow | None):
+    """Rollout (N+1, 6) and Jacobians A (N, 6, 6), B (N, 6, 3), E (N, 6, 3) of the horizon (module docstring).
+
+    ``x0`` [x, z, θ, u, w, q]; ``tau0`` (3,) the wrench now; ``V`` (N, 3) the demands; ``dt`` (N,) s;
+    ``a_mid`` (N,) of :func:`lag_profile`; ``d`` (3,) the disturbance; ``flow`` the flow at the strips with
+    3N instants, step k's stages at rows 3k, 3k + 1, 3k + 2 (None: still water).
+    """
+    x0, tau0, V = (np.ascontiguousarray(a, dtype=float) for a in (x0, tau0, V))
+    dt, a_mid, d = (np.ascontiguousarray(a, dtype=float) for a in (dt, a_mid, d))
+    if kernels.ENABLED:
+        if flow is None:
+            z = np.zeros((3 * V.shape[0], 1))
+            return kernels.horizon_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, False, np.zeros(1), np.ones(1),
+                                       z, z, z, z)
+        return kernels.horizon_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, True, flow.xs, flow.wts, flow.u,
+                                   flow.w, flow.ax, flow.az)
+    n = V.shape[0]
+    X = np.empty((n + 1, 6))
+    A, B, E = np.empty((n, 6, 6)), np.empty((n, 6, 3)), np.empty((n, 6, 3))
+    X[0] = x0
+    for k in range(n):
+        fk = None if flow is None else BodyFlow(flow.xs, flow.wts, flow.u[3 * k:3 * k + 3], flow.w[3 * k:3 * k + 3],
+                                                flow.ax[3 * k:3 * k + 3], flow.az[3 * k:3 * k + 3])
+        v_prev = tau0 if k == 0 else V[k - 1]
+        x = X[k]
+        f0 = _step(p, x, dt[k], v_prev, V[k], a_mid[k], d, fk)
+        X[k + 1] = f0
+        for j in range(6):
+            h = 1e-6 * max(1.0, abs(x[j]))
+            xp = x.copy()
+            xp[j] += h
+            A[k, :, j] = (_step(p, xp, dt[k], v_prev, V[k], a_mid[k], d, fk) - f0) / h
+        for j in range(3):
+            h = 1e-6 * max(1.0, abs(V[k, j]))
+            vp = V[k].copy()
+            vp[j] += h
+            B[k, :, j] = (_step(p, x, dt[k], v_prev, vp, a_mid[k], d, fk) - f0) / h
+            h = 1e-6 * max(1.0, abs(v_prev[j]))
+            vq = v_prev.copy()
+            vq[j] += h
+            E[k, :, j] = (_step(p, x, dt[k], vq, V[k], a_mid[k], d, fk) - f0) / h
+    return X, A, B, E
+
+
+def horizon_grid(h: float, step: float, n: int) -> np.ndarray:
+    """Step lengths (s) of an n-step horizon: the control period h first (the command being sent), then ``step``."""
+    return np.array([h] + [step] * (n - 1), dtype=float) if n > 0 else np.zeros(0)
+
+
+def stage_times(dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The horizon's RK4 stage instants: the 2N + 1 distinct offsets (s from now: every step's start, middle
+    and end, a step's end being the next one's start) and, for step k's stages at rows 3k, 3k + 1, 3k + 2,
+    their index into those offsets (3N,), so the flow is evaluated once per instant."""
+    dt = np.asarray(dt, dtype=float)
+    n = dt.size
+    knots = np.concatenate([[0.0], np.cumsum(dt)])
+    offsets = np.empty(2 * n + 1)
+    offsets[0::2] = knots
+    offsets[1::2] = knots[:-1] + 0.5 * dt
+    index = np.stack([2 * np.arange(n), 2 * np.arange(n) + 1, 2 * np.arange(n) + 2], axis=1).ravel()
+    return offsets, index
