@@ -148,12 +148,12 @@ def main(argv: list[str] | None = None) -> int:
         link.close()
 
 
-def companion_overrides(method: str, ff: bool, out_delay: int = 1) -> dict[str, float]:
-    """The parameters the companion runs with, whatever the parameter file says. ``out_delay``: ticks between
-    the telemetry a command answers and the period it acts over (1: the stand-in in lockstep, which applies
-    it at its next tick; 0: real ArduSub with the telemetry clock, which applies it within its 400 Hz loop)."""
-    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF
-    overrides = {"WK_FF_ENABLE": 1.0 if ff else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": float(out_delay),
+def companion_overrides(method: str, ff: bool) -> dict[str, float]:
+    """The parameters the companion runs with, whatever the parameter file says."""
+    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF.
+    # WK_OUT_DELAY 1: the stand-in applies a command at its next tick; real ArduSub within ~8 ms of the
+    # telemetry's stamp, but that telemetry is itself ~26 ms behind the vehicle: ~0.7 tick (docs/companion.md)
+    overrides = {"WK_FF_ENABLE": 1.0 if ff else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
                  "FS_EKF_ACTION": 0.0, "WK_EKF_MODE": 0.0}
     if method == "rc":
         # ArduSub's mixer does not compensate motor lag: the companion does, and keeps the boosted command
@@ -171,9 +171,8 @@ def _build(args, link, stop):
     from ..params import load_params
     from .commander import Commander
     from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL, TelemetryClock, attitude_stamp
-    delay = 0 if args.clock == "telemetry" and not args.lockstep else 1
     depth_noise = _depth_noise(args, link)
-    fixed = {**companion_overrides(args.method, args.forecast == "zenoh", delay), **dict(args.set)}
+    fixed = {**companion_overrides(args.method, args.forecast == "zenoh"), **dict(args.set)}
     params = load_params(args.params, fixed)
     if depth_noise is not None and "WK_EKF_R_DEPTH" not in dict(args.set):
         params.set("WK_EKF_R_DEPTH", max(depth_noise, params["WK_EKF_R_DEPTH"]))
@@ -194,8 +193,8 @@ def _build(args, link, stop):
     commander.fw = fw
     timing = ("lockstep" if args.lockstep else "ticks on the autopilot's ATTITUDE" if args.clock == "telemetry"
               else "real time (TIMESYNC offset %.3f s)" % (clock.offset_ns * 1e-9))
-    print(f"wavekeep companion: {args.method} method, stick model {model}, {timing}, WK_OUT_DELAY {delay}, "
-          f"depth σ {params['WK_EKF_R_DEPTH']:g} m", flush=True)
+    print(f"wavekeep companion: {args.method} method, stick model {model}, {timing}, "
+          f"WK_OUT_DELAY {params['WK_OUT_DELAY']:g}, depth σ {params['WK_EKF_R_DEPTH']:g} m", flush=True)
     return fw, commander, clock, rate
 
 
@@ -287,9 +286,9 @@ def _write_stats(args, fw, commander, link, rows) -> None:
         Path(args.log).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
         # per command: the ATTITUDE time it answered (ms, the autopilot's clock) and the wall latency (ms)
         sent = np.array(commander.sent, dtype=float).reshape(len(commander.answered_ms), -1)
+        header = ",".join(["attitude_ms", "latency_ms"] + [f"ch{i}" for i in range(sent.shape[1])])
         np.savetxt(Path(args.log).with_suffix(".commands.csv"), np.c_[commander.answered_ms, lat, sent],
-                   delimiter=",", header=",".join(["attitude_ms", "latency_ms"] + [f"ch{i}" for i in range(sent.shape[1])]),
-                   comments="", fmt="%.6g")
+                   delimiter=",", header=header, comments="", fmt="%.6g")
 
 
 if __name__ == "__main__":

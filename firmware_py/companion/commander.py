@@ -34,6 +34,7 @@ the autopilot after RC_OVERRIDE_TIME, so a killed companion stops commanding.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import numpy as np
 
@@ -81,7 +82,7 @@ class Commander:
         self.engaged = False
         self.selected = False           # the pilot armed / selected MANUAL since the companion last released
         self.sent_any = False
-        self.fw = None                  # the companion's Firmware (set once built)
+        self.fw: Any = None             # the companion's Firmware (set once built)
         self.events: list[tuple[float, str]] = []
         self.latency_s: list[float] = []      # wall s from the ATTITUDE's arrival to the command sent
         self.answered_ms: list[int] = []      # that ATTITUDE's time_boot_ms, per command
@@ -109,7 +110,6 @@ class Commander:
             self.selected = False
             self.release("estimate not finite: re-initialised")
         elif self.engaged and not fresh:
-            import sys; s_=self.link.state.samples.get("ATTITUDE"); print("DEBUG stale gate", time.monotonic()-s_.arrived if s_ else None, s_.t_ms if s_ else None, file=sys.stderr, flush=True)
             self.selected = False
             self.release("stale telemetry")
         elif not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL:
@@ -131,7 +131,6 @@ class Commander:
     def watchdog(self) -> None:
         """Called while waiting for telemetry: stale telemetry releases without waiting for a tick."""
         if self.engaged and self.link.fresh("ATTITUDE", self.stale_s) is None:
-            import sys; s_=self.link.state.samples.get("ATTITUDE"); print("DEBUG stale watchdog", time.monotonic()-s_.arrived if s_ else None, s_.t_ms if s_ else None, file=sys.stderr, flush=True)
             self.selected = False
             self.release("stale telemetry")
 

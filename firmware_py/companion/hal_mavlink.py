@@ -108,11 +108,18 @@ class MAVLinkAutopilotHAL(HAL):
         self.stale_s = float(stale_s)
         self.surface_pa, self.rho = float(surface_pa), float(rho)
         self._pos_count = 0
+        self._sp2_count = 0
+        self._sp2_value = math.nan
 
     def depth(self) -> float:
+        """A new depth reading, or NaN when there is none this tick. ArduSub reads its barometer at 10 Hz and
+        repeats the last reading in a faster SCALED_PRESSURE2 stream: a repeated value is no new measurement
+        (fused twice, its noise would count as half what it is)."""
         sp2 = self.link.fresh("SCALED_PRESSURE2", self.stale_s)
         if sp2 is not None:
-            return (sp2.values[0] * 100.0 - self.surface_pa) / (self.rho * G0)
+            new = sp2.count != self._sp2_count and sp2.values[0] != self._sp2_value
+            self._sp2_count, self._sp2_value = sp2.count, sp2.values[0]
+            return (sp2.values[0] * 100.0 - self.surface_pa) / (self.rho * G0) if new else math.nan
         lp = self.link.fresh("LOCAL_POSITION_NED", self.stale_s)
         return lp.values[1] if lp is not None else math.nan
 
@@ -127,7 +134,10 @@ class MAVLinkAutopilotHAL(HAL):
         depth = self.depth()
         if att is None:
             return SensorFrame(t, math.nan, math.nan, math.nan, math.nan, healthy=False)
-        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=math.isfinite(depth))
+        # healthy while a depth source streams (a tick between two 10 Hz readings has none of its own)
+        source = self.link.fresh("SCALED_PRESSURE2", self.stale_s) or self.link.fresh("LOCAL_POSITION_NED",
+                                                                                        self.stale_s)
+        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=source is not None)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.commander.output(pwm)

@@ -25,7 +25,6 @@ __all__ = ["AUTOPILOT_SCHEMA", "ArduSubProcess", "free_instance", "load_ardusub_
 AUTOPILOT_SCHEMA = {
     "name": Field("str"),
     "defaults": Field("str", doc="parameter file beside this config, given to ArduSub with --defaults"),
-    "home": {"lat": Field("float", lo=-90.0, hi=90.0), "lon": Field("float", lo=-180.0, hi=180.0)},
     "sea_start_s": Field("float", lo=10.0, hi=600.0, doc="s of still water to boot and dive in"),
     "physics_rate_hz": Field("float", lo=20.0, hi=1200.0, doc="the plant's step under ArduSub's frames"),
     "speedup": Field("float", lo=1.0, hi=1000.0, doc="ArduSub's --speedup when the run gives none"),
@@ -78,6 +77,16 @@ def free_instance(first: int = 10, last: int = 200) -> int:
     raise RuntimeError(f"no free ArduSub SITL instance between {first} and {last}")
 
 
+def home() -> str:
+    """``--home``: the firmware's NED origin (WK_ORIGIN_LAT/LON, the site) at altitude 0, heading north.
+    SITL's barometer computes water pressure from the height above sea level: at any other altitude the
+    depth ArduSub reads is offset (at its default 584 m, dead)."""
+    from firmware_py.params import load_params
+
+    p = load_params()
+    return f"{p['WK_ORIGIN_LAT']:.7f},{p['WK_ORIGIN_LON']:.7f},0,0"
+
+
 class ArduSubProcess:
     """The binary, started in ``folder`` with its output in ``log``; stopped with SIGKILL (it ignores SIGTERM
     while it waits for physics, and keeps no state worth a clean exit: its parameters are wiped each run)."""
@@ -91,7 +100,7 @@ class ArduSubProcess:
         self.argv = [str(binary), "-I", str(self.instance), "--model", "JSON:127.0.0.1", "--sim-port-out",
                      str(plant_port), "--defaults", cfg["defaults"], "-w",
                      "--speedup", f"{cfg['speedup'] if speedup is None else speedup:g}",
-                     "--home", f"{cfg['home']['lat']},{cfg['home']['lon']},0,0",
+                     "--home", home(),
                      "--serial0", f"udpclient:127.0.0.1:{gcs_port}"]
         if companion_port is not None:
             self.argv += ["--serial1", f"udpclient:127.0.0.1:{companion_port}"]

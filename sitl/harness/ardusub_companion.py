@@ -32,7 +32,7 @@ from .ardusub_launch import (
     truth_timeseries,
     world_args,
 )
-from .companion_launch import companion_argv
+from .companion_launch import METHODS, companion_argv
 from .launcher import (
     LaunchError,
     SimOptions,
@@ -55,6 +55,8 @@ MANUAL = 19
 def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, companion_port: int,
                              progress=None) -> dict:
     """One mission with ``wavekeep companion`` flying the real ArduSub; the results document (also in DIR)."""
+    if method not in METHODS:
+        raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
     spec = opt.spec
     cfg = load_ardusub_config()
     sea, _mcfg, duration, setpoint, out = prepare_run(opt)

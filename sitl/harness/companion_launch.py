@@ -56,15 +56,11 @@ def stand_in_args(method: str) -> list[str]:
     return args
 
 
-def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None,
-                     binary=None) -> dict:
-    """Run one mission with the companion flying the stand-in (or, with ``binary``, the real ArduSub SITL:
+def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None) -> dict:
+    """Run one mission with the companion flying the stand-in (the real ArduSub SITL:
     :mod:`~sitl.harness.ardusub_companion`); returns the results document (also in DIR)."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
-    if binary is not None:
-        from .ardusub_companion import launch_ardusub_companion
-        return launch_ardusub_companion(opt, binary, method, companion_port, progress)
     spec = opt.spec
     sea, mcfg, duration, setpoint, out = prepare_run(opt)
     for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):

@@ -128,9 +128,12 @@ def cmd_sim(args: argparse.Namespace) -> int:
     opt = SimOptions(spec, speedup=args.speedup, out=str(out), plant_port=ports["--plant-port"],
                      gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots)
     try:
-        if args.companion:
+        if args.companion and binary is not None:
+            from ..ardusub_companion import launch_ardusub_companion
+            r = launch_ardusub_companion(opt, binary, args.companion, args.companion_port, progress=None)
+        elif args.companion:
             from ..companion_launch import launch_companion
-            r = launch_companion(opt, args.companion, args.companion_port, progress=None, binary=binary)
+            r = launch_companion(opt, args.companion, args.companion_port, progress=None)
         elif binary is not None:
             from ..ardusub_launch import launch_ardusub
             r = launch_ardusub(opt, binary, args.ardusub_mode, progress=None)
