@@ -32,6 +32,7 @@ from bridge.models.vehicle import (
     rk4_step,
     state_rates_at,
     strip_nodes,
+    submerged_fraction,
     wave_load,
 )
 from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
@@ -180,18 +181,22 @@ class Plant:
         df = s.thrust - f_cmd
         calm = self._calm(t)
         flow = None
+        # A thruster out of the water pushes nothing: near the surface the thrust fades as the buoyancy does
+        wet = 1.0 if s.eta[1] >= 0.5 * p.height else submerged_fraction(p, float(s.eta[1]))
         for i in range(self.substeps):
             # motor_lag_stages(f_cmd, f₀, t_m, i h + stage): f_cmd + e^{−s/t_m} (f₀ − f_cmd), factors kept
             tau_thr = (f_cmd + lags[i] * df) @ self.B.T
+            if wet != 1.0:
+                tau_thr = tau_thr * wet
             if not calm:
                 flow = body_flow(self.sea.components, x[:3], t - self.sea_start + stage, self.strips, self.current_x)
             x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
         f = (f_cmd + lag_end * df)[0]
         if self.lateral is not None:
-            self.lateral.step((float(x[2]), float(x[3]), float(x[4]), float(x[5])), s.thrust, f, dt)
+            self.lateral.step((float(x[2]), float(x[3]), float(x[4]), float(x[5])), s.thrust * wet, f * wet, dt)
         self.state = PlantState(t, x[:3], x[3:], f)
-        self.tau = self.B @ f
+        self.tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
         u, w, q = x[3:].tolist()
         in_flow, still = hydrodynamic_load_terms(p, u, w, q, flow, 2), hydrodynamic_load_terms(p, u, w, q, None)
         self.tau_E = np.array([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])

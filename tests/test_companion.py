@@ -171,7 +171,7 @@ def test_stale_telemetry_releases_the_overrides(rig):
     rig.relay.faults["up"] = Faults(drop=1.0)          # the vehicle's telemetry to the companion: lost for 2 s
     time.sleep(2.0)
     rig.relay.faults["up"] = Faults()
-    rig.wait_log("released overrides (stale telemetry)", 2)
+    rig.wait_log("released overrides (stale telemetry, ATTITUDE", 2)
     tail = rig.samples("RC_CHANNELS", 1.0)
     assert tail and all(_sticks(m) == (1500, 1500, 1500) for m in tail), [_sticks(m) for m in tail]
 

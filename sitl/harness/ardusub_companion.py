@@ -29,6 +29,7 @@ from .ardusub_launch import (
     _wait_mode,
     autopilot_results,
     boot,
+    dive,
     truth_timeseries,
     world_args,
 )
@@ -81,7 +82,7 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
         children.append(_Child("companion", companion_argv(cli, configs, spec, method, companion_port, netcfg, out,
                                                            lockstep=False), out / "companion.log", env))
         _wait_ready(children, opt.ready_timeout_s)
-        wall = _fly(gcs, cfg, sea_start + duration, f"sim --companion {method} ArduSub {sea.name} {spec.label}",
+        wall = _fly(gcs, cfg, setpoint, duration, f"sim --companion {method} ArduSub {sea.name} {spec.label}",
                     progress)
     except KeyboardInterrupt:
         raise LaunchError("interrupted", 130) from None
@@ -108,8 +109,9 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
     return results
 
 
-def _fly(gcs: _GroundStation, cfg: dict, end_s: float, title: str, progress) -> float:
-    """The pilot: wait for ArduSub's position estimate, MANUAL, arm; to ``end_s`` of its clock; disarm."""
+def _fly(gcs: _GroundStation, cfg: dict, setpoint: np.ndarray, duration: float, title: str, progress) -> float:
+    """The pilot: wait for ArduSub's position estimate, MANUAL, arm; the companion dives before the sea
+    begins and holds the mission's duration; disarm. The wall time (s)."""
     import time
 
     mav = gcs.mavlink
@@ -117,8 +119,11 @@ def _fly(gcs: _GroundStation, cfg: dict, end_s: float, title: str, progress) -> 
     _wait_mode(gcs, ARDUSUB_MODES["guided"], cfg["boot_timeout_s"])     # accepted once the EKF has a position
     _wait_mode(gcs, MANUAL, 10.0)
     gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    sea_start = cfg["sea_start_s"]
+    end_s = sea_start + duration
     with ProgressBar(end_s, title, enabled=progress) as bar:
-        gcs._follow_clock(int(round(end_s * 1000)) + 200, bar, timeout=end_s * 10 + 600)
+        dive(gcs, setpoint, sea_start, bar, send=False)
+        gcs._follow_clock(int(round(end_s * 1000)) + 200, bar, timeout=duration * 10 + 600)
     gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     return time.monotonic() - t0
 

@@ -91,7 +91,7 @@ def _wait_mode(gcs: _GroundStation, mode: int, timeout: float) -> None:
             continue
         if ack.result == mav.MAV_RESULT_ACCEPTED:
             return
-        time.sleep(0.5)
+        time.sleep(0.1)
     raise LaunchError(f"ArduSub did not accept mode {mode} within {timeout:g} s")
 
 
@@ -138,12 +138,38 @@ def fly_ardusub(gcs: _GroundStation, cfg: dict, setpoint: np.ndarray, mode: str,
     sea_start = cfg["sea_start_s"]
     end_ms = int(round((sea_start + duration) * 1000)) + 200     # the truth log covers the last tick
     with ProgressBar(sea_start + duration, title, enabled=progress) as bar:
-        gcs._follow_clock(int(round(sea_start * 1000)), bar, timeout=(sea_start + duration) * 10 + 600)
+        dive(gcs, setpoint, sea_start, bar)
         if mode != "guided":
             _wait_mode(gcs, ARDUSUB_MODES[mode], 10.0)
         gcs._follow_clock(end_ms, bar, timeout=duration * 10 + 600)
     gcs.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0)
     return time.monotonic() - t0
+
+
+def dive(gcs: _GroundStation, setpoint: np.ndarray, sea_start: float, bar, send: bool = True) -> None:
+    """Until the sea begins, send the station again every second of the vehicle's clock (``send``: a target
+    ArduSub dropped would leave it holding the surface; a companion flies the dive itself); at the sea's start
+    it must be on station (its own depth within 0.5 m), or the run is refused with what to change."""
+    depth = [float("nan")]
+
+    def seen(m) -> bool:
+        if m.get_type() == "GLOBAL_POSITION_INT":
+            depth[0] = -m.relative_alt / 1000.0
+        t_ms = getattr(m, "time_boot_ms", None) if m.get_type() in ("SYSTEM_TIME", "ATTITUDE") else None
+        if t_ms is not None:
+            bar.update(t_ms / 1000.0)
+            return t_ms >= next_ms
+        return False
+
+    next_ms = 0
+    while next_ms < sea_start * 1000:
+        m = gcs.pump(seen, "ArduSub's clock", timeout=120.0)
+        next_ms = min(int(round(sea_start * 1000)), int(m.time_boot_ms) + 1000)
+        if send:
+            send_station(gcs, setpoint)
+    if not abs(depth[0] - setpoint[1]) <= 0.5:
+        raise LaunchError(f"ArduSub was at {depth[0]:.2f} m, not on the station ({setpoint[1]:g} m), when the sea "
+                          "began: give it longer (sea_start_s in configs/autopilot/ardusub.yaml)")
 
 
 def truth_timeseries(path: Path, sea: Sea, sea_start: float, duration: float, setpoint: np.ndarray) -> np.ndarray:
