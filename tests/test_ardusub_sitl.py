@@ -19,10 +19,21 @@ from __future__ import annotations
 import math
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
-from ardusub_sitl import ALT_HOLD, GUIDED, MANUAL, SubRig, ardusub_binary, depth_of, motor_axes, servo_pwm
+from ardusub_sitl import (
+    ALT_HOLD,
+    GUIDED,
+    MANUAL,
+    STALE_S,
+    SubRig,
+    ardusub_binary,
+    depth_of,
+    motor_axes,
+    servo_pwm,
+)
 
 pytestmark = pytest.mark.processes
 
@@ -69,7 +80,7 @@ def test_companion_depth_noise_follows_the_barometer_it_reads(sub):
     a Bar30's centimetre (which let its estimate diverge within a minute)."""
     sub.arm(False)
     sub.mode(MANUAL)
-    sub.gcs.set_param("SIM_SPEEDUP", 2.0)                      # the companion's link runs on the wall clock
+    sub.gcs.set_param("SIM_SPEEDUP", 3.0)                      # the companion's link runs on the wall clock
     rnd = sub.gcs.param("SIM_BAR2_RND").param_value
     sub.companion("servo")
     assert f"depth σ {rnd / math.sqrt(3):g} m" in sub.companion_log(), sub.companion_log()
@@ -143,8 +154,9 @@ def test_frozen_companion_outputs_expire_and_it_hands_back_when_it_resumes(sub):
     released = sub.companion_log().count("WK: released overrides (")
     os.killpg(sub.companion_proc.pid, signal.SIGSTOP)
     try:
-        t_stop = sub.now()
+        t_stop, wall_stop = sub.now(), time.monotonic()
         msgs = sub.run_for(expiry + 1.5)
+        time.sleep(max(0.0, wall_stop + STALE_S + 0.5 - time.monotonic()))   # frozen longer than its --stale
     finally:
         os.killpg(sub.companion_proc.pid, signal.SIGCONT)
     out = sub.outputs(msgs)
@@ -186,3 +198,24 @@ def first_seen(commands: np.ndarray, out: np.ndarray) -> np.ndarray:
         if shown.size:
             lags.append(shown[0] - commands[k, 0] / 1000.0)
     return np.array(lags)
+
+
+def test_wavekeep_sim_flies_the_real_ardusub_in_one_command(tmp_path):
+    """``wavekeep sim --autopilot ardusub:PATH``: boot at the surface, GUIDED dive in still water, the sea from its
+    t = 0 for the mission; results from the plant's truth on the sea's clock."""
+    import json
+    import subprocess
+    import sys
+
+    binary = ardusub_binary()
+    out = tmp_path / "run"
+    done = subprocess.run([sys.executable, "-m", "sitl.harness.cli", "sim", "--autopilot", f"ardusub:{binary}",
+                           "--case", "W1", "--duration", "10", "--out", str(out), "--no-plots"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    r = json.loads((out / "results.json").read_text())
+    assert r["label"] == "ArduSub GUIDED" and r["sea_start_s"] > 0 and r["duration_s"] == 10
+    assert r["rmse"]["heave"] < 0.5 and r["rmse"]["surge"] < 0.5 and r["max_abs_error"]["pitch"] < math.radians(20)
+    ts = np.loadtxt(out / "timeseries.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert ts.shape[0] == 199 and ts[0, 0] == pytest.approx(0.05)      # the sea's clock, 20 Hz
+    assert "ArduSub GUIDED" in done.stdout
