@@ -70,11 +70,12 @@ def servo_pwm(m) -> list[int]:
 class SubRig:
     """Plant (in this process) + the ArduSub binary + a ground station; ``companion()`` adds the companion."""
 
-    def __init__(self, tmp: Path, binary: str, speedup: float = 8.0, start: str = "surface", six_dof: bool = True):
+    def __init__(self, tmp: Path, binary: str, speedup: float = 8.0, start: str = "surface", six_dof: bool = True,
+                 case: str = "W1", sea_start: float = STILL_S):
         self.tmp = tmp
         cfg = load_ardusub_config()
-        sea = Sea.load("W1")
-        self.server = PhysicsServer(lambda: Plant.from_configs(sea, start=start, sea_start=STILL_S, six_dof=six_dof),
+        sea = Sea.load(case)
+        self.server = PhysicsServer(lambda: Plant.from_configs(sea, start=start, sea_start=sea_start, six_dof=six_dof),
                                     port=0, physics_rate_hz=cfg["physics_rate_hz"]).start()
         self.gcs_port, self.companion_port = free_port(), free_port()
         self.gcs = GroundStation(f"udpin:127.0.0.1:{self.gcs_port}")

@@ -85,6 +85,9 @@ class _Fw:
         return 0
 
     def request_mode(self, mode):
+        if mode == 4 and not self.ekf.converged():           # as the firmware: GUIDED needs a position
+            return 4
+        self.mode = mode
         return 0
 
 
@@ -209,3 +212,22 @@ def test_stand_in_pass_through_ignores_arming_and_reassigns_at_one_hertz():
     assert aux.passthrough(10.4) == {}                          # still motors until ArduSub's 1 Hz loop
     assert aux.passthrough(11.0)[0] == 1804                     # (the firmware asks it disarmed too)
     assert aux.passthrough(11.0 + params["RC_OVERRIDE_TIME"])[0] == 1500     # expired
+
+
+def test_engaged_without_a_position_it_holds_every_axis_once_the_estimate_converges():
+    """Its first frame had no position fix (σ_x 10 m): depth and pitch only, then GUIDED on the station it
+    engaged at as soon as the estimate converges (it stayed in depth hold for a whole flight, drifting 10 m)."""
+    fw = _Fw()
+    fw.ekf.initialise(SensorFrame(0.0, math.nan, 5.0, 0.0, 0.0))
+    c, link = _commander("servo", fw)
+    link.attitude()
+    link.state.armed, link.state.mode = True, MANUAL
+    c.selected = True
+    c.gate()
+    assert c.engaged and c.depth_only and fw.mode == 2
+    for k in range(1, 40):                                   # position fixes come in
+        fw.ekf.update(SensorFrame(0.05 * k, 0.2, 5.0, 0.0, 0.0))
+    fw.setpoint = np.array([0.2, 5.0, 0.0])                  # (GUIDED's entry takes the pose)
+    c.gate()
+    assert fw.mode == 4 and not c.depth_only and fw.setpoint.tolist() == [0.0, 5.0, 0.0]
+    assert "WK: position estimate converged: holding every axis" in _texts(link)

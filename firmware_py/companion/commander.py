@@ -47,6 +47,7 @@ __all__ = ["ARDUSUB_FACTORS", "MOTOR_FUNCTIONS", "PASSTHROUGH_FUNCTIONS", "Comma
            "set_output_functions"]
 
 IGNORE, RELEASE_LOW, RELEASE_HIGH = 65535, 0, 65534
+ALT_HOLD, GUIDED = 2, 4                         # the companion's own modes (firmware_py.modes.Mode)
 MOTORS_AFTER_S = 0.1
 """servo: s of wall time between the neutral override and handing the outputs back to the motors (two ticks:
 ArduSub has put the neutral on its outputs by then)."""
@@ -103,6 +104,8 @@ class Commander:
         self.latency_s: list[float] = []      # wall s from the ATTITUDE's arrival to the command sent
         self.answered_ms: list[int] = []      # that ATTITUDE's time_boot_ms, per command
         self.sent: list[list[int]] = []       # the channels it set (servo: 9-16; rc: 1, 3, 5)
+        self.depth_only = False         # engaged before its estimate had a position: depth and pitch only
+        self._station = np.zeros(3)     # the station it engaged at [x, depth, θ]
         self._resets = 0                # the estimator's restarts seen (a non-finite estimate)
         self._faults = 0                # non-finite commands the control task replaced by neutral
         self._last_gate = time.monotonic()   # wall time of the last gate (a tick about to run)
@@ -137,11 +140,23 @@ class Commander:
             # autopilot may already have dropped its overrides. It hands back rather than resume.
             self.selected = False
             self.release(f"companion stalled {gap:.1f} s")
+        elif self.engaged and self.depth_only and self.fw is not None and self.fw.ekf.converged():
+            self._hold_every_axis()
         elif self.engaged and not fresh:
             self.selected = False
             self.release(f"stale telemetry, ATTITUDE {self._attitude_age():.1f} s old")
         elif not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL:
             self._engage()
+
+    def _hold_every_axis(self) -> None:
+        """Engaged holding depth and pitch only (its estimate had no position yet, e.g. no fix in its first
+        frame): once the estimate has converged, every axis on the station it engaged at (the feed-forward
+        needs them all). Before, it stayed in depth hold for the whole flight and the vehicle drifted."""
+        fw = self.fw
+        if fw.request_mode(GUIDED) == 0:
+            fw.setpoint = self._station.copy()
+            self.depth_only = False
+            self.say(6, "WK: position estimate converged: holding every axis")
 
     def _hand_back(self, now: float) -> None:
         """servo, after a release: the motor functions once the neutral is out, then (except at exit: the
@@ -193,9 +208,11 @@ class Commander:
             self.link.rc_override([IGNORE] * 8 + [1500] * 8 + [0, 0])
             set_output_functions(self.link, PASSTHROUGH_FUNCTIONS)
         fw.request_arm(True, force=True)
-        if fw.request_mode(4) != 0:           # GUIDED: every axis held
-            fw.request_mode(2)                # no position estimate: ALT_HOLD (depth and pitch)
+        self.depth_only = fw.request_mode(GUIDED) != 0     # GUIDED: every axis held
+        if self.depth_only:
+            fw.request_mode(ALT_HOLD)                      # no position estimate yet: depth and pitch
         fw.setpoint = station
+        self._station = station
         self.engaged = True
         self.say(6, f"WK: engaged ({self.method}), station x {station[0]:.1f} d {station[1]:.1f}")
 

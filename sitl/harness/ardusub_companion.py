@@ -51,6 +51,8 @@ from .run_files import write_run
 __all__ = ["MANUAL", "join_ticks", "launch_ardusub_companion"]
 
 MANUAL = 19
+SITL_STALE_S = 2.0
+"""The companion's ``--stale`` (wall s) here: a loaded two-core machine starves it for 0.5 s now and then."""
 
 
 def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, companion_port: int,
@@ -79,8 +81,11 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
         # the outputs at 50 Hz in mission.tlog: when each command reaches the thrusters (docs/companion.md, Latency)
         gcs.conn.mav.command_long_send(1, 1, gcs.mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, 0,
                                        gcs.mavlink.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, 20_000, 0, 0, 0, 0, 0)
-        children.append(_Child("companion", companion_argv(cli, configs, spec, method, companion_port, netcfg, out,
-                                                           lockstep=False), out / "companion.log", env))
+        # --stale 2: on a shared SITL machine the companion is starved of the CPU for half a second now and then,
+        # and would hand back (a vehicle keeps 0.5 s: docs/companion.md)
+        children.append(_Child("companion", [*companion_argv(cli, configs, spec, method, companion_port, netcfg, out,
+                                                             lockstep=False), "--stale", f"{SITL_STALE_S:g}"],
+                               out / "companion.log", env))
         _wait_ready(children, opt.ready_timeout_s)
         wall = _fly(gcs, cfg, setpoint, duration, f"sim --companion {method} ArduSub {sea.name} {spec.label}",
                     progress)
