@@ -271,3 +271,9 @@ def test_plant_refuses_bad_foreign_world_options(capsys):
         assert status == 2
         err = capsys.readouterr().err
         assert word in err and "Traceback" not in err, err
+
+
+def test_ardusub_set_needs_the_autopilot_and_numbers(tmp_path, capsys):
+    refused(capsys, ["sim", "--ardusub-set", "SIM_BAR2_RND=0.01", "--out", str(tmp_path / "a")], "--autopilot")
+    refused(capsys, ["sim", "--autopilot", "ardusub:/bin/true", "--ardusub-set", "SIM_BAR2_RND", "--out",
+                     str(tmp_path / "b")], "NAME=NUMBER")

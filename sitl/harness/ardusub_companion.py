@@ -56,12 +56,14 @@ SITL_STALE_S = 2.0
 
 
 def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, companion_port: int,
-                             progress=None) -> dict:
-    """One mission with ``wavekeep companion`` flying the real ArduSub; the results document (also in DIR)."""
+                             progress=None, params: dict[str, float] | None = None) -> dict:
+    """One mission with ``wavekeep companion`` flying the real ArduSub; the results document (also in DIR).
+    ``params``: ArduSub parameters to set too (``--ardusub-set``), after the config's."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
     spec = opt.spec
     cfg = load_ardusub_config()
+    cfg["params"].update(params or {})
     sea, _mcfg, duration, setpoint, out = prepare_run(opt)
     for port, what in ((opt.plant_port, "plant"), (opt.gcs_port, "GCS"), (companion_port, "companion")):
         _check_port(port, what)
@@ -108,7 +110,7 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
                                   "link": stats.get("link"), "events": stats.get("events"),
                                   "faults": stats.get("faults")},
                     "ff_active_fraction": float(np.nanmean(log[:, COLUMN["ff_active"]])),
-                    "sea_start_s": sea_start, "speedup": speedup, "wall_time_s": wall,
+                    "ardusub_params": cfg["params"], "sea_start_s": sea_start, "speedup": speedup, "wall_time_s": wall,
                     "speed_x_realtime": (sea_start + duration) / wall if wall > 0 else None, "processes": statuses})
     write_run(RunResult(results, log), out, plots=opt.plots)
     return results

@@ -44,11 +44,14 @@ def world_args(cfg: dict) -> tuple[str, ...]:
             "--log-rate", f"{RATE_HZ:g}")
 
 
-def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress=None) -> dict:
-    """Fly one mission with ArduSub's own controllers; returns the results document (also in DIR)."""
+def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress=None,
+                   params: dict[str, float] | None = None) -> dict:
+    """Fly one mission with ArduSub's own controllers; returns the results document (also in DIR).
+    ``params``: ArduSub parameters to set too (``--ardusub-set``), after the config's."""
     if mode not in ARDUSUB_MODES:
         raise LaunchError(f"--ardusub-mode takes {', '.join(ARDUSUB_MODES)}, got {mode!r}", 2)
     cfg = load_ardusub_config()
+    cfg["params"].update(params or {})
     sea, _mcfg, duration, setpoint, out = prepare_run(opt)
     _check_port(opt.plant_port, "plant")
     _check_port(opt.gcs_port, "GCS")
@@ -71,7 +74,8 @@ def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress
     log = truth_timeseries(out / "plant_truth.csv", sea, sea_start, duration, setpoint)
     results = autopilot_results(sea, duration, setpoint, log, f"ArduSub {mode.upper()}")
     results.update({"transport": "real ArduSub SITL (JSON SITL, MAVLink)", "autopilot": str(binary),
-                    "ardusub_mode": mode, "sea_start_s": sea_start, "speedup": opt.speedup, "wall_time_s": wall,
+                    "ardusub_mode": mode, "ardusub_params": cfg["params"], "sea_start_s": sea_start,
+                    "speedup": opt.speedup, "wall_time_s": wall,
                     "speed_x_realtime": (sea_start + duration) / wall if wall > 0 else None,
                     "processes": statuses})
     write_run(RunResult(results, log), out, plots=opt.plots)

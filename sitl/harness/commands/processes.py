@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import socket
 import sys
 
@@ -60,6 +61,9 @@ def add_parsers(sub) -> None:
                         "the companion's with --companion; docs/ardusub.md)")
     p.add_argument("--ardusub-mode", choices=("guided", "alt_hold", "poshold"), default="guided",
                    help="--autopilot without --companion: ArduSub's mode for the mission (after a GUIDED dive)")
+    p.add_argument("--ardusub-set", action="append", default=None, metavar="NAME=VALUE",
+                   help="--autopilot: an ArduSub parameter to set before arming (repeatable), e.g. "
+                        "SIM_BAR2_RND=0.01 (a Bar30's noise, not SITL's 0.2 m)")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     o.add_out(p, required=False, default="runs/sim")
     p.set_defaults(func=cmd_sim)
@@ -117,6 +121,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
     binary = None
+    ardusub_params = _ardusub_params(args.ardusub_set, args.autopilot)
     if args.autopilot is not None:
         from ..ardusub import parse_autopilot
         try:
@@ -130,13 +135,14 @@ def cmd_sim(args: argparse.Namespace) -> int:
     try:
         if args.companion and binary is not None:
             from ..ardusub_companion import launch_ardusub_companion
-            r = launch_ardusub_companion(opt, binary, args.companion, args.companion_port, progress=None)
+            r = launch_ardusub_companion(opt, binary, args.companion, args.companion_port, progress=None,
+                                         params=ardusub_params)
         elif args.companion:
             from ..companion_launch import launch_companion
             r = launch_companion(opt, args.companion, args.companion_port, progress=None)
         elif binary is not None:
             from ..ardusub_launch import launch_ardusub
-            r = launch_ardusub(opt, binary, args.ardusub_mode, progress=None)
+            r = launch_ardusub(opt, binary, args.ardusub_mode, progress=None, params=ardusub_params)
         else:
             r = launch(opt, progress=None)
     except LaunchError as exc:
@@ -149,6 +155,23 @@ def cmd_sim(args: argparse.Namespace) -> int:
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
           + ", mission.tlog, *.log, run.json")
     return 0
+
+
+def _ardusub_params(items: list[str] | None, autopilot: str | None) -> dict[str, float]:
+    """``--ardusub-set NAME=VALUE`` items as NAME → number (only with ``--autopilot``)."""
+    if items and autopilot is None:
+        raise o.UsageError("--ardusub-set applies only with --autopilot ardusub:PATH")
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, eq, text = item.partition("=")
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not eq or not name.strip() or not math.isfinite(value):
+            raise o.UsageError(f"--ardusub-set {item}: expected NAME=NUMBER")
+        out[name.strip().upper()] = value
+    return out
 
 
 def cmd_forecast(args: argparse.Namespace) -> int:
