@@ -125,29 +125,41 @@ def _plain_floats(values) -> list[float]:
 
 
 def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
-                  g: float, frame_count: int | None = None, pressure_depth: float | None = None) -> dict[str, Any]:
+                  g: float, frame_count: int | None = None, pressure_depth: float | None = None,
+                  lateral: tuple[float, ...] | None = None) -> dict[str, Any]:
     """The JSON SITL state of a planar vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
 
-    ``imu.accel_body`` is the specific force in body FRD,
+    ``imu.accel_body`` is the specific force in body FRD, ν̇ + ω × ν − Rᵀ [0, 0, g]: in the plane
     [u̇ + q w + g sin θ, 0, ẇ − q u − g cos θ] (≈ [0, 0, −g] at rest).
     ``velocity`` is J(η)ν in NED. ``pressure_depth`` (m), when the world models the waves' dynamic
     pressure at the depth sensor, goes in ``wavekeep.pressure_depth``: ArduPilot's protocol has no
     pressure field (its barometer follows ``position``), so only Wavekeep's HAL reads it.
+
+    ``lateral``, for a world that also moves out of the plane (``sitl/lateral.py``): ``(y, φ, ψ, v, p, r,
+    v̇, ẏ)`` (east m, roll and yaw rad, sway m/s, roll and yaw rates rad/s, sway acceleration m/s², east
+    velocity m/s). Without it those are all zero: a planar vehicle.
     """
     x, z, theta = _plain_floats(eta)
     u, w, q = _plain_floats(nu)
     du, dw = float(nu_dot[0]), float(nu_dot[1])
     st, ct = math.sin(theta), math.cos(theta)
     vn, vd = body_to_ned(theta, u, w)
+    if lateral is None:
+        y = phi = psi = v = p = r = dv = ve = 0.0
+        accel = [du + q * w + g * st, 0.0, dw - q * u - g * ct]
+    else:
+        y, phi, psi, v, p, r, dv, ve = (float(c) for c in lateral)
+        sf, cf = math.sin(phi), math.cos(phi)
+        accel = [du + q * w - r * v + g * st, dv + r * u - p * w - g * ct * sf, dw + p * v - q * u - g * ct * cf]
     msg: dict[str, Any] = {
         "timestamp": float(t),
         "imu": {
-            "gyro": [0.0, q, 0.0],
-            "accel_body": [du + q * w + g * st, 0.0, dw - q * u - g * ct],
+            "gyro": [p, q, r],
+            "accel_body": accel,
         },
-        "position": [x, 0.0, z],
-        "velocity": [vn, 0.0, vd],
-        "attitude": [0.0, theta, 0.0],
+        "position": [x, y, z],
+        "velocity": [vn, ve, vd],
+        "attitude": [phi, theta, psi],
         # Last, and with no key that ArduPilot's substring parser looks for
         # (timestamp, gyro, accel_body, position, attitude, quaternion, velocity, rng_N, ...).
         "wavekeep": {"eta": [x, z, theta], "nu": [u, w, q], "thrust": _plain_floats(thrust)},

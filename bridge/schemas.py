@@ -56,6 +56,21 @@ VEHICLE_SCHEMA = {
         "Z_ww": Field("float", lo=0.0, hi=1e4),
         "M_qq": Field("float", lo=0.0, hi=1e3),
     },
+    # Sway, roll and yaw: only a plant that serves a six-DoF autopilot uses them (sitl/lateral.py). The defaults
+    # are the BlueROV2 Heavy's (von Benzon et al. 2022, from Wu 2018: the source of Table II's planar values)
+    "lateral": {
+        "I_x": Field("float", lo=0.0, lo_open=True, hi=1e3, default=0.26, doc="roll inertia (kg m^2)"),
+        "I_z": Field("float", lo=0.0, lo_open=True, hi=1e3, default=0.37, doc="yaw inertia (kg m^2)"),
+        "Y_vdot": Field("float", lo=0.0, hi=1e3, default=7.12, doc="sway added mass (kg)"),
+        "K_pdot": Field("float", lo=0.0, hi=1e2, default=0.189, doc="roll added inertia (kg m^2)"),
+        "N_rdot": Field("float", lo=0.0, hi=1e2, default=0.222, doc="yaw added inertia (kg m^2)"),
+        "Y_v": Field("float", lo=0.0, hi=1e4, default=0.0, doc="sway linear damping (kg/s)"),
+        "K_p": Field("float", lo=0.0, hi=1e3, default=0.0, doc="roll linear damping (kg m^2/s)"),
+        "N_r": Field("float", lo=0.0, hi=1e3, default=0.0, doc="yaw linear damping (kg m^2/s)"),
+        "Y_vv": Field("float", lo=0.0, hi=1e4, default=217.0, doc="sway quadratic damping (N s^2/m^2)"),
+        "K_pp": Field("float", lo=0.0, hi=1e3, default=1.19, doc="roll quadratic damping (N m s^2)"),
+        "N_rr": Field("float", lo=0.0, hi=1e3, default=1.5, doc="yaw quadratic damping (N m s^2)"),
+    },
     "thrusters": {
         "thrust_max": _positive(500.0, "controller cap per thruster (N)"),
         "time_constant": _positive(5.0, "first-order motor lag (s)"),

@@ -3,7 +3,10 @@
 * **RC pass-through.** An output whose ``SERVOn_FUNCTION`` is RCIN9–16 takes
   the PWM the GCS or a companion sends on that RC input (RC_CHANNELS_OVERRIDE),
   clamped to 1100–1900 µs; a released input, or one not refreshed within
-  ``RC_OVERRIDE_TIME`` s (negative: never expires), gives neutral.
+  ``RC_OVERRIDE_TIME`` s (negative: never expires), gives neutral (ArduSub: 0 µs, no
+  pulse; the same zero thrust). A changed ``SERVOn_FUNCTION`` takes effect on the next
+  whole second of vehicle time, as ArduSub re-assigns its outputs in its 1 Hz loop; and
+  pass-through ignores arming, as ArduSub's does.
 * **Motor test** (MAV_CMD_DO_MOTOR_TEST): one motor at a PWM, the others
   neutral, armed only, for at most 0.5 s — the GCS re-sends it to go on.
 """
@@ -37,6 +40,8 @@ class AuxOutputs:
         self.n = n
         self.rc_aux: dict[int, tuple[int, float]] = {}   # RC input 9-16 overrides: channel → (µs, vehicle time)
         self.test: MotorTest | None = None
+        self._assigned: tuple[tuple[int, int], ...] | None = None   # the functions in force (1 Hz re-assignment)
+        self._assigned_s = -1                                        # the whole second they were read in
 
     def rc_override(self, channel: int, pwm: int | None, now: float) -> None:
         """RC input ``channel`` (9–16) overridden to ``pwm`` µs at vehicle time ``now``, or released (None)."""
@@ -49,7 +54,10 @@ class AuxOutputs:
         """Outputs set to RCIN9–16 at vehicle time t: output index → µs."""
         out: dict[int, int] = {}
         expiry = self.params["RC_OVERRIDE_TIME"]
-        for i, function in self._functions():
+        second = math.floor(t)
+        if self._assigned is None or second != self._assigned_s:
+            self._assigned, self._assigned_s = self._functions(), second
+        for i, function in self._assigned:
             pwm, since = self.rc_aux.get(function - 50, (NEUTRAL_PWM_US, -math.inf))
             fresh = expiry < 0 or t - since <= expiry
             out[i] = min(1900, max(1100, pwm)) if fresh else NEUTRAL_PWM_US

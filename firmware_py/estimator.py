@@ -98,6 +98,7 @@ class PlanarEKF:
         self.rejected = dict.fromkeys(self.channels, 0)
         self.accepted = dict.fromkeys(self.channels, 0)
         self.resets = dict.fromkeys(self.channels, 0)
+        self.restarts = 0                    # times the estimate stopped being finite and started again
         m = len(self.channels)
         self.last_nis = np.full(m, np.nan)   # normalised innovation squared per channel, last tick
         self.nis_total = (0.0, 0)            # the accepted readings' joint NIS yᵀS⁻¹y and its dof, last tick
@@ -392,6 +393,11 @@ class PlanarEKF:
             self._adapt()
             if tune.qi_adpt:
                 self._adapt_to_innovations(y, S, avail)
+        if not (np.isfinite(self.kf.x).all() and np.isfinite(self.kf.P).all()):
+            # A diverged estimate is no estimate: start again from the next readings (the control task
+            # is neutral meanwhile), as ArduPilot's EKF resets a lane rather than fly on NaN
+            self.initialised = False
+            self.restarts += 1
         return np.array(accept)
 
     def _reset_channel(self, k: int, value: float, noise_var: float) -> None:

@@ -291,10 +291,10 @@ class Firmware:
         return TelemetrySnapshot.from_firmware(self)
 
     def fault_counts(self) -> dict[str, int]:
-        """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral, and
-        ticks the law flew its fallback."""
+        """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral,
+        ticks the law flew its fallback, and estimates that stopped being finite (the estimator started again)."""
         return {"feedforward": self.feedforward.faults, "output": self.output_faults,
-                "law_fallbacks": self.controller.fallbacks}
+                "law_fallbacks": self.controller.fallbacks, "estimator": self.ekf.restarts}
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
@@ -421,9 +421,10 @@ class Firmware:
         return ff_active, flow, ff
 
     def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
-        """The thruster outputs: neutral disarmed, a motor test, or the held axes' control + the pilot's."""
+        """The thruster outputs: neutral disarmed (but RCIN pass-through), a motor test, or the held axes'
+        control + the pilot's."""
         if not self.armed:
-            return self.mixer.neutral()
+            return self._disarmed_output(t)
         if (test := self.aux.test_pwm(t)) is not None:
             return self.mixer.output(test)
         holds = self.flight_mode.holds
@@ -444,6 +445,17 @@ class Firmware:
         self.output_faults += 1
         self.controller.reset()
         return self.mixer.neutral()
+
+    def _disarmed_output(self, t: float) -> MixerOutput:
+        """Disarmed: the motors neutral; an output set to RCIN9-16 still passes its input through until the
+        override is released or expires (RC_OVERRIDE_TIME), as ArduSub's pass-through ignores arming."""
+        passthrough = self.aux.passthrough(t)
+        if not passthrough:
+            return self.mixer.neutral()
+        pwm = self.mixer.neutral().pwm.copy()
+        for i, v in passthrough.items():
+            pwm[i] = v
+        return self.mixer.output(pwm)
 
     def _ahead(self, t: float) -> np.ndarray:
         """The state the command will meet: the estimate propagated over the commands still in flight

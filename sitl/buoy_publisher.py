@@ -33,8 +33,12 @@ def _contiguous(present: np.ndarray) -> list[slice]:
 
 
 class BuoyPublisher:
-    def __init__(self, session, site: str, sea: Sea, publish_every_s: float = 0.5, history_s: float = 300.0):
+    def __init__(self, session, site: str, sea: Sea, publish_every_s: float = 0.5, history_s: float = 300.0,
+                 clock_offset_s: float = 0.0):
         self.buoy = sea.buoy()
+        # The vehicle's clock at the sea's t = 0 (a plant whose sea starts late, ``--sea-start``): the samples
+        # are measured on the sea's time and stamped on the vehicle's
+        self.clock_offset = float(clock_offset_s)
         self.dt = 1.0 / self.buoy.sample_rate
         self.every = float(publish_every_s)
         self.history = int(round(history_s / self.dt))
@@ -62,7 +66,8 @@ class BuoyPublisher:
         eta = self.buoy.measure(times)
         for run in _contiguous(np.isfinite(eta)):
             self.seq += 1
-            self._pub.put(encode_buoy(BuoyRecord(self.buoy.x, self.dt, float(times[run][0]), eta[run], self.seq)))
+            t0 = float(times[run][0]) + self.clock_offset
+            self._pub.put(encode_buoy(BuoyRecord(self.buoy.x, self.dt, t0, eta[run], self.seq)))
         self._next_sample = last + 1
         self._last_publish_t = t
         self.published += 1

@@ -48,7 +48,9 @@ from typing import Any
 
 import numpy as np
 
-from bridge.json_sitl import decode_servo_packet, encode_state, state_message
+from bridge.json_sitl import decode_servo_packet, encode_state
+
+from .physics_rate import PhysicsHold, plant_state_message
 
 __all__ = [
     "PhysicsServer",
@@ -84,13 +86,6 @@ class ServerCounters:
         return asdict(self)
 
 
-def plant_state_message(plant, frame_count: int | None = None) -> dict:
-    """The JSON SITL state of a plant (:func:`bridge.json_sitl.state_message`), ν̇ from ``plant.nu_dot``."""
-    s = plant.state
-    return state_message(s.t, s.eta, s.nu, plant.nu_dot, s.thrust, float(plant.vehicle.g), frame_count,
-                         plant.pressure_depth)
-
-
 MAX_CATCH_UP = 100
 """At most this many steps to catch up on a gap in frame_count (2 s at 50 Hz)."""
 
@@ -111,12 +106,14 @@ class PhysicsServer:
     every restart. The socket is bound at construction (``port=0`` picks a free
     port, read it back from :attr:`port`). Serve with :meth:`serve_forever` in
     the calling thread, or :meth:`start` / :meth:`stop` (also a context
-    manager) in a background thread.
+    manager) in a background thread. ``physics_rate_hz`` steps the plant at that rate when the autopilot's
+    frames come faster (:class:`~sitl.physics_rate.PhysicsHold`); None: one step per frame.
     """
 
     def __init__(self, plant_factory: Callable[[], Any], host: str = "127.0.0.1", port: int = DEFAULT_PORT,
-                 poll_s: float = 0.1):
+                 poll_s: float = 0.1, physics_rate_hz: float | None = None):
         self.plant_factory = plant_factory
+        self.hold = PhysicsHold(physics_rate_hz)
         self.host = host
         self.poll_s = float(poll_s)
         self.counters = ServerCounters()
@@ -184,6 +181,7 @@ class PhysicsServer:
         if not self._session:
             # hello: the state at t = 0, not stepped; this packet's PWM is not applied
             self._session, self._rate = True, rate
+            self.hold.start(rate)
         elif count == self._last_count and self._last_reply is not None:
             c.duplicates += 1
             return self._last_reply
@@ -194,9 +192,8 @@ class PhysicsServer:
             gap = count - self._last_count
             c.missed += gap - 1
             for _ in range(min(gap, MAX_CATCH_UP)):
-                self.plant.step(pwm, 1.0 / rate)
-                c.steps += 1
-        reply = encode_state(plant_state_message(self.plant, count))
+                c.steps += self.hold.frame(self.plant, pwm, rate)
+        reply = encode_state(self.hold.message(self.plant, count))
         self._last_count = count
         self._last_reply = reply
         return reply
@@ -258,11 +255,17 @@ class PhysicsServer:
 
 
 # ---------------------------------------------------------------------- command line
-class _RecordingPlant:
-    """A plant that logs its truth after every step and drives the buoy publisher (``wavekeep plant``)."""
+TRUTH_COLUMNS = ("t", "x", "z", "theta", "u", "w", "q", "tauE_X", "tauE_Z", "tauE_M", "wall_s",
+                 "tau_X", "tau_Z", "tau_M", "y", "phi", "psi")
+"""``wavekeep plant --log``'s columns: plant time (s), η, ν, the wave load, the wall clock (s, monotonic), the
+thrusters' wrench [X, Z, M] (N, N m) and, with ``--six-dof``, east (m), roll and yaw (rad; else 0)."""
 
-    def __init__(self, plant, rows: list | None, buoy):
-        self._plant, self._rows, self._buoy = plant, rows, buoy
+
+class _RecordingPlant:
+    """A plant that logs its truth after every step (or every 1/``log_rate`` s) and drives the buoy publisher."""
+
+    def __init__(self, plant, rows: list | None, buoy, log_rate: float | None = None):
+        self._plant, self._rows, self._buoy, self._log_rate = plant, rows, buoy, log_rate
         self._record()
 
     def __getattr__(self, name):
@@ -270,11 +273,18 @@ class _RecordingPlant:
 
     def _record(self) -> None:
         s = self._plant.state
-        if self._rows is not None:
+        if self._rows is not None and self._on_log_grid(s.t):
+            lat = self._plant.lateral.state[:3].tolist() if self._plant.lateral is not None else [0.0] * 3
             # wall_s: when the plant was asked for this state — an outside observer of the firmware's timing
-            self._rows.append([s.t, *s.eta, *s.nu, *self._plant.tau_E, time.monotonic()])
+            self._rows.append([s.t, *s.eta, *s.nu, *self._plant.tau_E, time.monotonic(), *self._plant.tau, *lat])
         if self._buoy is not None:
-            self._buoy.advance(s.t)
+            self._buoy.advance(s.t - self._plant.sea_start)
+
+    def _on_log_grid(self, t: float) -> bool:
+        if self._log_rate is None:
+            return True
+        k = t * self._log_rate
+        return abs(k - round(k)) < 1e-6
 
     def step(self, pwm, dt):
         out = self._plant.step(pwm, dt)
@@ -301,6 +311,19 @@ def _parser() -> argparse.ArgumentParser:
                     help="set one sea config key (repeatable), e.g. current.speed=0.3 (docs/sea-errors.md)")
     ap.add_argument("--true-vehicle", default=None, metavar="NAME",
                     help="plant-only vehicle override: a name in configs/vehicle/true/ or a path")
+    # A foreign autopilot (real ArduSub SITL): docs/json_sitl.md
+    ap.add_argument("--start", choices=("station", "surface"), default="station",
+                    help="station: at the mission's station; surface: at rest at depth 0, held until the thrusters "
+                         "run (an autopilot that zeroes its depth at boot, as ArduSub does, must boot there)")
+    ap.add_argument("--sea-start", type=float, default=0.0, metavar="S",
+                    help="still water until S s of plant time, then the sea from its t = 0 (time to boot and dive)")
+    ap.add_argument("--six-dof", action="store_true",
+                    help="move in sway, roll and yaw too (an autopilot that holds heading and position, as ArduSub)")
+    ap.add_argument("--physics-rate", type=float, default=None, metavar="HZ",
+                    help="step the plant at this rate when the autopilot's frames come faster (ArduSub: 1200 Hz); "
+                         "default: once per frame")
+    ap.add_argument("--log-rate", type=float, default=None, metavar="HZ",
+                    help="--log only every 1/HZ s of plant time; default: every step")
     return ap
 
 
@@ -326,18 +349,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             from .buoy_publisher import BuoyPublisher
             net = load_network_config(args.buoy_network)
             session = open_session(net, "plant")
-            buoy = BuoyPublisher(session, net["site"], sea)
+            buoy = BuoyPublisher(session, net["site"], sea, clock_offset_s=args.sea_start)
 
         def factory():
-            plant = Plant.from_configs(sea, args.vehicle, args.mission, args.true_vehicle)
+            plant = Plant.from_configs(sea, args.vehicle, args.mission, args.true_vehicle, args.start,
+                                       args.sea_start, args.six_dof)
             if not (args.log or buoy):
                 return plant
             rows.clear()
             if buoy is not None:
                 buoy.reset()
-            return _RecordingPlant(plant, rows if args.log else None, buoy)
+            return _RecordingPlant(plant, rows if args.log else None, buoy, args.log_rate)
 
-        server = PhysicsServer(factory, args.host, args.port)
+        factory()          # a bad option fails here, not at the first hello
+        server = PhysicsServer(factory, args.host, args.port, physics_rate_hz=args.physics_rate)
     except (ConfigError, FileNotFoundError, ValueError) as exc:
         print(f"wavekeep plant: {exc}", file=sys.stderr)
         return 2
@@ -369,7 +394,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             session.close()
         if args.log:
             from bridge.logfile import save_csv_whole
-            save_csv_whole(args.log, np.array(rows).reshape(-1, 11), "t,x,z,theta,u,w,q,tauE_X,tauE_Z,tauE_M,wall_s")
+            save_csv_whole(args.log, np.array(rows).reshape(-1, len(TRUTH_COLUMNS)), ",".join(TRUTH_COLUMNS))
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     counts = " ".join(f"{k}={v}" for k, v in server.counters.as_dict().items())

@@ -31,13 +31,15 @@ from bridge.models.vehicle import (
     rk4_step,
     state_rates_at,
     strip_nodes,
+    submerged_fraction,
     wave_load,
 )
 from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
 
+from .lateral import LateralModel, LateralParams
 from .sea import Sea
 
-__all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "Plant", "PlantDiverged", "PlantState"]
+__all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "START_POSES", "Plant", "PlantDiverged", "PlantState"]
 
 MAX_BODY_SPEED = 20.0   # m/s: |u|, |w| beyond this is no ROV in any sea the schema admits (they stay below 8)
 MAX_BODY_RATE = 20.0    # rad/s: |q| likewise (about 1150 °/s)
@@ -46,6 +48,11 @@ MAX_BODY_RATE = 20.0    # rad/s: |q| likewise (about 1150 °/s)
 class PlantDiverged(RuntimeError):
     """The integration left the physical range (non-finite, or ν beyond :data:`MAX_BODY_SPEED` /
     :data:`MAX_BODY_RATE`): the step is too large for the sea, or the sea outside the model."""
+
+
+START_POSES = ("station", "surface")
+"""Where the vehicle starts: at the mission's station, or at rest at the still surface (depth 0), held there
+until its thrusters first run: where a foreign autopilot boots and zeroes its depth (docs/json_sitl.md)."""
 
 
 @dataclass
@@ -82,24 +89,43 @@ class Plant:
         self.nu_dot = np.zeros(3)       # body acceleration at the end of the last step
         self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north)
         self.pressure_depth: float | None = None   # what a pressure sensor reads (m), with the sea's option
+        self.sea_start = 0.0            # s of plant time at which the sea (waves, current) begins at its t = 0
+        self.moored = False             # held at rest where it is until a thruster first gives thrust
+        self.lateral: LateralModel | None = None   # sway, roll and yaw (a six-DoF autopilot's world)
         self._lag_key: float | None = None          # the dt the motor-lag factors below were computed for
         self._lags: list[np.ndarray] = []          # per substep: e^{−s/t_m} at its stage times (3, 1)
         self._lag_end = np.ones(1)                  # e^{−dt/t_m} (1, 1)
 
     @classmethod
     def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping",
-                     true_vehicle: str | None = None) -> Plant:
+                     true_vehicle: str | None = None, start: str = "station", sea_start: float = 0.0,
+                     six_dof: bool = False) -> Plant:
         """The plant of the vehicle and mission configs; ``true_vehicle`` names a plant-only override
-        (``configs/vehicle/true/``) that scales the vehicle's coefficients: the firmware keeps the nominal ones."""
+        (``configs/vehicle/true/``) that scales the vehicle's coefficients: the firmware keeps the nominal ones.
+
+        For a foreign autopilot (docs/json_sitl.md): ``start`` "surface" (:data:`START_POSES`), the sea
+        still until ``sea_start`` s, and ``six_dof`` for sway, roll and yaw (:mod:`sitl.lateral`)."""
+        if start not in START_POSES:
+            raise ValueError(f"start must be one of {', '.join(START_POSES)}, got {start!r}")
+        if not (math.isfinite(sea_start) and sea_start >= 0.0):
+            raise ValueError(f"sea_start must be a non-negative number of seconds, got {sea_start}")
         vcfg = load_vehicle_config(vehicle)
         if true_vehicle:
             vcfg = apply_true_vehicle(vcfg, load_true_vehicle(true_vehicle))
         mcfg = load_mission_config(mission)
-        plant = cls(VehicleParams.from_config(vcfg), sea, ThrusterLayout.from_config(vcfg["thrusters"]),
-                    T200Curve.from_config(vcfg["thrusters"]), vcfg["thrusters"]["time_constant"],
+        layout = ThrusterLayout.from_config(vcfg["thrusters"])
+        params = VehicleParams.from_config(vcfg)
+        plant = cls(params, sea, layout, T200Curve.from_config(vcfg["thrusters"]), vcfg["thrusters"]["time_constant"],
                     mcfg["plant"]["substeps"], mcfg["plant"]["strips"])
+        plant.sea_start = float(sea_start)
+        if six_dof:
+            plant.lateral = LateralModel(LateralParams.from_config(vcfg, params.g), layout.wrench_matrix()[[1, 3, 5]])
         sp = mcfg["setpoint"]
-        plant.reset(eta=np.array([sp["x"], sp["depth"], sp["pitch"]]))
+        if start == "surface":
+            plant.reset(eta=np.array([sp["x"], 0.0, sp["pitch"]]))
+            plant.moored = True
+        else:
+            plant.reset(eta=np.array([sp["x"], sp["depth"], sp["pitch"]]))
         return plant
 
     def reset(self, eta=None, nu=None, t: float = 0.0) -> None:
@@ -109,18 +135,27 @@ class Plant:
         self.tau_E = self.wave_load(self.state.eta, self.state.nu, self.state.t)
         self.tau = np.zeros(3)
         self.nu_dot = np.zeros(3)
+        if self.lateral is not None:
+            self.lateral.reset()
         self._update_pressure()
+
+    def _calm(self, t: float) -> bool:
+        """Is the sea still at plant time t (before :attr:`sea_start`)?"""
+        return t < self.sea_start
 
     def _update_pressure(self) -> None:
         """The depth a pressure sensor at the body origin reads, p/(ρ g) = z + Σ A K_p cos θ (m), when the
         sea's ``depth_sensor.dynamic_pressure`` is on; None (the sensor reads the true depth) otherwise."""
         if self.sea.dynamic_pressure:
             s = self.state
-            self.pressure_depth = float(s.eta[1] + self.sea.pressure_head(s.eta[0], s.eta[1], s.t))
+            head = 0.0 if self._calm(s.t) else self.sea.pressure_head(s.eta[0], s.eta[1], s.t - self.sea_start)
+            self.pressure_depth = float(s.eta[1] + head)
 
     def wave_load(self, eta, nu, t) -> np.ndarray:
-        """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at time(s) t."""
-        return wave_load(self.vehicle, self.sea.components, eta, nu, t, self.strips, self.current_x)
+        """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at plant time t."""
+        if self._calm(t):
+            return np.zeros(3)
+        return wave_load(self.vehicle, self.sea.components, eta, nu, t - self.sea_start, self.strips, self.current_x)
 
     def step(self, pwm, dt: float) -> PlantState:
         """Hold the eight PWM commands (µs) for dt seconds and advance the world.
@@ -140,6 +175,11 @@ class Plant:
             raise ValueError(f"dt must be positive, got {dt}")
         f_cmd = self.curve.thrust(pwm)
         s = self.state
+        if self.moored:
+            if not f_cmd.any():     # held where it is (at the surface) until a thruster runs
+                self.state = PlantState(s.t + dt, s.eta, s.nu, s.thrust)
+                return self.state
+            self.moored = False
         h = dt / self.substeps
         stage = np.array([0.0, 0.5 * h, h])
         p = self.vehicle
@@ -147,16 +187,25 @@ class Plant:
         t = s.t
         lags, lag_end = self._motor_lags(dt, stage)
         df = s.thrust - f_cmd
+        calm = self._calm(t)
+        flow = None
+        # A thruster out of the water pushes nothing: near the surface the thrust fades as the buoyancy does
+        wet = 1.0 if s.eta[1] >= 0.5 * p.height else submerged_fraction(p, float(s.eta[1]))
         for i in range(self.substeps):
             # motor_lag_stages(f_cmd, f₀, t_m, i h + stage): f_cmd + e^{−s/t_m} (f₀ − f_cmd), factors kept
             tau_thr = (f_cmd + lags[i] * df) @ self.B.T
-            flow = body_flow(self.sea.components, x[:3], t + stage, self.strips, self.current_x)
+            if wet != 1.0:
+                tau_thr = tau_thr * wet
+            if not calm:
+                flow = body_flow(self.sea.components, x[:3], t - self.sea_start + stage, self.strips, self.current_x)
             x = rk4_step(p, x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
         _check_physical(x, s.t, t)
         f = (f_cmd + lag_end * df)[0]
+        if self.lateral is not None:
+            self.lateral.step((float(x[2]), float(x[3]), float(x[4]), float(x[5])), s.thrust * wet, f * wet, dt)
         self.state = PlantState(t, x[:3], x[3:], f)
-        self.tau = self.B @ f
+        self.tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
         u, w, q = x[3:].tolist()
         in_flow, still = hydrodynamic_load_terms(p, u, w, q, flow, 2), hydrodynamic_load_terms(p, u, w, q, None)
         self.tau_E = np.array([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
@@ -173,6 +222,15 @@ class Plant:
             self._lag_end = motor_lag_factors(self.t_m, [dt])
             self._lag_key = dt
         return self._lags, self._lag_end
+
+    def lateral_fields(self) -> tuple[float, ...] | None:
+        """The out-of-plane motion for the JSON state (:func:`bridge.json_sitl.state_message`'s ``lateral``):
+        (y, φ, ψ, v, p, r, v̇, ẏ), or None for a planar world."""
+        if self.lateral is None:
+            return None
+        y, phi, psi, v, p, r = self.lateral.state.tolist()
+        rates = self.lateral.rates
+        return (y, phi, psi, v, p, r, float(rates[3]), float(rates[0]))
 
     def power_per_dof(self) -> np.ndarray:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""

@@ -246,3 +246,34 @@ def test_wavekeep_runs_with_one_blas_thread_unless_told_otherwise():
     out = subprocess.run([sys.executable, "-c", code], env={**env, "OPENBLAS_NUM_THREADS": "2"},
                          capture_output=True, text=True, check=True).stdout
     assert out.split()[-2] == "2"
+
+
+def test_sim_refuses_an_autopilot_it_cannot_run(tmp_path, capsys):
+    """--autopilot takes ardusub:PATH to an executable file; anything else is one line before anything starts."""
+    script = tmp_path / "ardusub"
+    script.write_text("#!/bin/sh\n")
+    cases = (("px4:/bin/true", ("expected ardusub:PATH",)), ("ardusub:", ("expected ardusub:PATH",)),
+             (f"ardusub:{tmp_path / 'none'}", ("no such file",)), (f"ardusub:{script}", ("not executable",)))
+    for spec, words in cases:
+        refused(capsys, ["sim", "--autopilot", spec, "--out", str(tmp_path / "run")], *words)
+    assert not (tmp_path / "run").exists()
+
+
+def test_plant_refuses_bad_foreign_world_options(capsys):
+    from sitl.physics_server import main as plant_main
+
+    for argv, word in ((["--sea-start", "-1"], "sea_start"), (["--physics-rate", "0"], "physics rate"),
+                       (["--start", "orbit"], "invalid choice")):
+        try:
+            status = plant_main(["--port", "0", *argv])
+        except SystemExit as exc:                        # argparse's own refusal (a choice)
+            status = exc.code
+        assert status == 2
+        err = capsys.readouterr().err
+        assert word in err and "Traceback" not in err, err
+
+
+def test_ardusub_set_needs_the_autopilot_and_numbers(tmp_path, capsys):
+    refused(capsys, ["sim", "--ardusub-set", "SIM_BAR2_RND=0.01", "--out", str(tmp_path / "a")], "--autopilot")
+    refused(capsys, ["sim", "--autopilot", "ardusub:/bin/true", "--ardusub-set", "SIM_BAR2_RND", "--out",
+                     str(tmp_path / "b")], "NAME=NUMBER")

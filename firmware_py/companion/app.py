@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import gc
 import json
+import math
 import signal
 import sys
 import threading
@@ -45,6 +46,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sysid", type=int, default=255, help="our system id: the autopilot's MAV_GCS_SYSID")
     p.add_argument("--compid", type=int, default=191, help="our component id (MAV_COMP_ID_ONBOARD_COMPUTER)")
     p.add_argument("--lockstep", action="store_true", help="SITL: tick on the stand-in's LOCKSTEP markers")
+    p.add_argument("--clock", choices=("telemetry", "timesync"), default="telemetry",
+                   help="telemetry: a tick starts when the autopilot's ATTITUDE for it arrives (the freshest "
+                        "telemetry, on the autopilot's clock at any SITL speed-up); timesync: the local clock on "
+                        "the autopilot's via TIMESYNC, in real time (docs/companion.md, Latency)")
+    p.add_argument("--depth-noise", default="auto", metavar="M",
+                   help="σ of the depth the companion reads (m); auto: SITL's SIM_BAR2_RND where the autopilot "
+                        "has it (uniform noise: RND/√3), else WK_EKF_R_DEPTH (a Bar30)")
     p.add_argument("--stale", type=float, default=0.5, help="s without ATTITUDE before the overrides are released")
     p.add_argument("--surface-pressure", type=float, default=101325.0, help="Pa at the surface (depth zero)")
     p.add_argument("--water-density", type=float, default=1025.0, help="kg/m³")
@@ -59,20 +67,25 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _check_vehicle(link, method: str) -> None:
-    """Refuse a vehicle that is not a BlueROV2 Heavy on ArduSub, or not set up for the method."""
+def _check_vehicle(link, method: str, timeout: float = 10.0) -> None:
+    """Refuse a vehicle that is not a BlueROV2 Heavy on ArduSub, or whose outputs the method cannot use."""
     from .autopilot import VehicleIdentityError
-    link.wait_vehicle()
+    from .commander import MOTOR_FUNCTIONS, PASSTHROUGH_FUNCTIONS, set_output_functions
+    link.wait_vehicle(timeout)
     frame = link.read_param("FRAME_CONFIG")
     if frame is None or int(frame) != 2:
         raise VehicleIdentityError(f"FRAME_CONFIG is {frame}: this companion flies a BlueROV2 Heavy "
                                    "(2, Vectored-6DOF)")
     if method == "servo":
-        for n in range(1, 9):
-            f = link.read_param(f"SERVO{n}_FUNCTION")
-            if f is None or int(f) != 58 + n:
-                raise VehicleIdentityError(f"servo method: SERVO{n}_FUNCTION is {f}, must be {58 + n} "
-                                           f"(RCIN{8 + n}); see docs/companion.md")
+        functions = [link.read_param(f"SERVO{n}_FUNCTION") for n in range(1, 9)]
+        for n, f in enumerate(functions, 1):
+            if f is None or int(f) not in (MOTOR_FUNCTIONS[n - 1], PASSTHROUGH_FUNCTIONS[n - 1]):
+                raise VehicleIdentityError(f"servo method: SERVO{n}_FUNCTION is {f}, must be {32 + n} (motor {n}) "
+                                           f"or {58 + n} (RCIN{8 + n}); see docs/companion.md")
+        if any(int(f) != m for f, m in zip(functions, MOTOR_FUNCTIONS, strict=True)):
+            # left as pass-through (an earlier companion that died engaged): the pilot's thrusters first
+            set_output_functions(link, MOTOR_FUNCTIONS)
+            print("wavekeep companion: SERVO1-8_FUNCTION were pass-through: restored to motors 1-8", flush=True)
 
 
 def _stick_model(args, link, params) -> tuple[str, tuple[float, float, float]]:
@@ -123,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     link = AutopilotLink(args.autopilot, args.target_system, args.sysid, args.compid)
     try:
-        _check_vehicle(link, args.method)
+        _check_vehicle(link, args.method, args.identity_timeout)
     except VehicleIdentityError as exc:
         print(f"wavekeep companion: refused: {exc}", file=sys.stderr, flush=True)
         link.statustext(3, "WK: companion refused this vehicle")
@@ -137,7 +150,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def companion_overrides(method: str, ff: bool) -> dict[str, float]:
     """The parameters the companion runs with, whatever the parameter file says."""
-    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF
+    # WK_EKF_MODE 0: the autopilot's telemetry carries no DVL or raw accelerometer stream for the aided EKF.
+    # WK_OUT_DELAY 1: the stand-in applies a command at its next tick; real ArduSub within ~8 ms of the
+    # telemetry's stamp, but that telemetry is itself ~26 ms behind the vehicle: ~0.7 tick (docs/companion.md)
     overrides = {"WK_FF_ENABLE": 1.0 if ff else 0.0, "FS_GCS_ENABLE": 0.0, "WK_OUT_DELAY": 1.0,
                  "FS_EKF_ACTION": 0.0, "WK_EKF_MODE": 0.0}
     if method == "rc":
@@ -155,8 +170,12 @@ def _build(args, link, stop):
     from ..firmware import Firmware
     from ..params import load_params
     from .commander import Commander
-    from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL
-    params = load_params(args.params, {**companion_overrides(args.method, args.forecast == "zenoh"), **dict(args.set)})
+    from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL, TelemetryClock, attitude_stamp
+    depth_noise = _depth_noise(args, link)
+    fixed = {**companion_overrides(args.method, args.forecast == "zenoh"), **dict(args.set)}
+    params = load_params(args.params, fixed)
+    if depth_noise is not None and "WK_EKF_R_DEPTH" not in dict(args.set):
+        params.set("WK_EKF_R_DEPTH", max(depth_noise, params["WK_EKF_R_DEPTH"]))
     vcfg, mcfg = load_vehicle_config(args.vehicle), load_mission_config(args.mission)
     layout, curve = ThrusterLayout.from_config(vcfg["thrusters"]), T200Curve.from_config(vcfg["thrusters"])
     model, tau_max = _stick_model(args, link, params)
@@ -165,20 +184,38 @@ def _build(args, link, stop):
     _request_streams(link, rate)
     if args.lockstep:
         clock = LockstepMarkerClock(link, commander.watchdog, stop.is_set)
+    elif args.clock == "telemetry":
+        clock = TelemetryClock(link, commander.watchdog, stop.is_set, attitude_stamp(link), 500_000_000 // int(rate))
     else:
         clock = AutopilotClock(link, commander.watchdog, _timesync_offset(link))
     hal = MAVLinkAutopilotHAL(link, commander, clock, args.stale, args.surface_pressure, args.water_density)
     fw = Firmware.from_configs(hal, params, vcfg, mcfg)
     commander.fw = fw
-    print(f"wavekeep companion: {args.method} method, stick model {model}, "
-          f"{'lockstep' if args.lockstep else 'real time (TIMESYNC offset %.3f s)' % (clock.offset_ns * 1e-9)}",
-          flush=True)
+    timing = ("lockstep" if args.lockstep else "ticks on the autopilot's ATTITUDE" if args.clock == "telemetry"
+              else "real time (TIMESYNC offset %.3f s)" % (clock.offset_ns * 1e-9))
+    print(f"wavekeep companion: {args.method} method, stick model {model}, {timing}, "
+          f"WK_OUT_DELAY {params['WK_OUT_DELAY']:g}, depth σ {params['WK_EKF_R_DEPTH']:g} m", flush=True)
     return fw, commander, clock, rate
+
+
+def _depth_noise(args, link) -> float | None:
+    """σ (m) of the depth reading the companion fuses (``--depth-noise``), or None to keep WK_EKF_R_DEPTH."""
+    if args.depth_noise != "auto":
+        try:
+            sigma = float(args.depth_noise)
+        except ValueError:
+            raise SystemExit(f"wavekeep companion: --depth-noise {args.depth_noise}: not a number") from None
+        if not (math.isfinite(sigma) and sigma > 0):
+            raise SystemExit(f"wavekeep companion: --depth-noise {args.depth_noise}: must be positive")
+        return sigma
+    rnd = link.read_param("SIM_BAR2_RND", 2.0)      # SITL only: SCALED_PRESSURE2's noise, uniform in ±RND m
+    return None if rnd is None or rnd <= 0 else rnd / math.sqrt(3.0)
 
 
 def _run(args, link, stop) -> int:
     from ..firmware import tick_row
     from ..scheduler import Task
+    from .hal_mavlink import AutopilotClock
     fw, commander, clock, rate = _build(args, link, stop)
     rows: list[list[float]] = []
     if args.log:
@@ -205,9 +242,9 @@ def _run(args, link, stop) -> int:
     gc.freeze()
     print("wavekeep companion: ready", flush=True)
     try:
-        if args.lockstep:
-            clock.sleep_until(0)      # the first marker: the stand-in's first tick
-            while link.state.marker_ms < 0 and not stop.is_set():
+        if not isinstance(clock, AutopilotClock):
+            clock.sleep_until(0)      # the first marker (the stand-in's first tick) or ATTITUDE
+            while clock.stamp_ms() < 0 and not stop.is_set():
                 link.pump(0.05)
         fw.rebuild_scheduler(t0_ns=clock.now_ns())
         fw.scheduler.run(stop=stop.is_set)
@@ -247,6 +284,11 @@ def _write_stats(args, fw, commander, link, rows) -> None:
         from ..firmware import TICK_COLUMNS
         Path(args.log).with_suffix(".json").write_text(json.dumps(stats, indent=2, default=str))
         save_csv_whole(args.log, np.array(rows).reshape(-1, len(TICK_COLUMNS) + 1), ",".join(["t", *TICK_COLUMNS]))
+        # per command: the ATTITUDE time it answered (ms, the autopilot's clock) and the wall latency (ms)
+        sent = np.array(commander.sent, dtype=float).reshape(len(commander.answered_ms), -1)
+        header = ",".join(["attitude_ms", "latency_ms"] + [f"ch{i}" for i in range(sent.shape[1])])
+        save_csv_whole(Path(args.log).with_suffix(".commands.csv"), np.c_[commander.answered_ms, lat, sent], header,
+                       fmt="%.6g")
 
 
 if __name__ == "__main__":

@@ -147,6 +147,10 @@ class AutopilotLink:
         self.mav.rc_channels_override_send(self.target, 1, *channels[:18])
         self.counters["tx_override"] += 1
 
+    def set_param(self, name: str, value: float) -> None:
+        """PARAM_SET (no wait: the PARAM_VALUE echo lands in :attr:`params`)."""
+        self.mav.param_set_send(self.target, 1, name.encode(), float(value), mavlink.MAV_PARAM_TYPE_REAL32)
+
     def lockstep_answer(self, ms: int) -> None:
         self.mav.named_value_int_send(ms, LOCKSTEP_MARKER, ms)
 

@@ -15,8 +15,11 @@
 Readings are stamped with the autopilot's clock (``time_boot_ms``). Two clocks
 drive the scheduler: :class:`LockstepMarkerClock` (SITL stand-in: time is the
 autopilot's, and a tick starts when the autopilot marks its tick's telemetry
-complete) and :class:`AutopilotClock` (a real vehicle: the local monotonic clock
-+ the TIMESYNC offset, i.e. the autopilot's boot clock, in real time).
+complete), :class:`TelemetryClock` (a real vehicle, the default: a tick starts when
+the autopilot's ATTITUDE for it arrives, so the command answers the freshest
+telemetry whatever the phase between the two loops) and :class:`AutopilotClock`
+(the local monotonic clock + the TIMESYNC offset, i.e. the autopilot's boot
+clock, in real time at an arbitrary phase to its telemetry).
 """
 from __future__ import annotations
 
@@ -31,27 +34,49 @@ from ..sensors import ATM_PA, G0, RHO_SEAWATER, SensorFrame
 from .autopilot import AutopilotLink
 from .commander import Commander
 
-__all__ = ["AutopilotClock", "LockstepMarkerClock", "MAVLinkAutopilotHAL"]
+__all__ = ["AutopilotClock", "LockstepMarkerClock", "MAVLinkAutopilotHAL", "TelemetryClock", "attitude_stamp"]
 
 
-class LockstepMarkerClock:
-    """Autopilot time, moved by the stand-in's LOCKSTEP markers (deterministic; never runs ahead)."""
+class TelemetryClock:
+    """The autopilot's time as its telemetry stamps it: a slot starts when the message that stamps it arrives.
+
+    ``stamp_ms()`` is the newest stamp (ms on the autopilot's clock, −1 before the first). A slot at
+    t is due once a stamp reaches t − ``early_ns``: a stream at the loop rate whose stamps jitter by a
+    few ms about the grid then starts each slot with its own message, never one period late.
+    Deterministic under lockstep; never runs ahead of the autopilot.
+    """
 
     simulated = True
 
-    def __init__(self, link: AutopilotLink, watchdog: Callable[[], None], stop: Callable[[], bool]):
+    def __init__(self, link: AutopilotLink, watchdog: Callable[[], None], stop: Callable[[], bool],
+                 stamp_ms: Callable[[], int], early_ns: int = 0):
         self.link, self.watchdog, self.stop = link, watchdog, stop
+        self.stamp_ms, self.early_ns = stamp_ms, int(early_ns)
         self._now = 0
 
     def now_ns(self) -> int:
         return self._now
 
     def sleep_until(self, t_ns: int) -> None:
-        st = self.link.state
-        while st.marker_ms * 1_000_000 < t_ns and not self.stop():
+        while self.stamp_ms() * 1_000_000 < t_ns - self.early_ns and not self.stop():
             self.link.pump(0.05)
             self.watchdog()
-        self._now = max(self._now, st.marker_ms * 1_000_000, int(t_ns) if self.stop() else 0)
+        self._now = max(self._now, self.stamp_ms() * 1_000_000, int(t_ns) if self.stop() else 0)
+
+
+class LockstepMarkerClock(TelemetryClock):
+    """SITL stand-in: time moved by its LOCKSTEP markers (each tick's telemetry complete), exactly on the grid."""
+
+    def __init__(self, link: AutopilotLink, watchdog: Callable[[], None], stop: Callable[[], bool]):
+        super().__init__(link, watchdog, stop, lambda: link.state.marker_ms)
+
+
+def attitude_stamp(link: AutopilotLink) -> Callable[[], int]:
+    """The newest ATTITUDE's ``time_boot_ms`` (−1 before the first): what a :class:`TelemetryClock` ticks on."""
+    def stamp() -> int:
+        s = link.state.samples.get("ATTITUDE")
+        return -1 if s is None else s.t_ms
+    return stamp
 
 
 class AutopilotClock:
@@ -83,11 +108,18 @@ class MAVLinkAutopilotHAL(HAL):
         self.stale_s = float(stale_s)
         self.surface_pa, self.rho = float(surface_pa), float(rho)
         self._pos_count = 0
+        self._sp2_count = 0
+        self._sp2_value = math.nan
 
     def depth(self) -> float:
+        """A new depth reading, or NaN when there is none this tick. ArduSub reads its barometer at 10 Hz and
+        repeats the last reading in a faster SCALED_PRESSURE2 stream: a repeated value is no new measurement
+        (fused twice, its noise would count as half what it is)."""
         sp2 = self.link.fresh("SCALED_PRESSURE2", self.stale_s)
         if sp2 is not None:
-            return (sp2.values[0] * 100.0 - self.surface_pa) / (self.rho * G0)
+            new = sp2.count != self._sp2_count and sp2.values[0] != self._sp2_value
+            self._sp2_count, self._sp2_value = sp2.count, sp2.values[0]
+            return (sp2.values[0] * 100.0 - self.surface_pa) / (self.rho * G0) if new else math.nan
         lp = self.link.fresh("LOCAL_POSITION_NED", self.stale_s)
         return lp.values[1] if lp is not None else math.nan
 
@@ -102,7 +134,10 @@ class MAVLinkAutopilotHAL(HAL):
         depth = self.depth()
         if att is None:
             return SensorFrame(t, math.nan, math.nan, math.nan, math.nan, healthy=False)
-        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=math.isfinite(depth))
+        # healthy while a depth source streams (a tick between two 10 Hz readings has none of its own)
+        source = self.link.fresh("SCALED_PRESSURE2", self.stale_s) or self.link.fresh("LOCAL_POSITION_NED",
+                                                                                        self.stale_s)
+        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=source is not None)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.commander.output(pwm)

@@ -2,7 +2,7 @@
 
 The processes: the plant (JSON SITL), the forecast service (C-PD+FF), the
 Wavekeep firmware as "ArduSub" (its own control off: MANUAL, WK_FF_ENABLE=0, no
-forecast; ``--companion-lockstep``; for ``servo`` SERVO1-8_FUNCTION = RCIN9-16)
+forecast; ``--companion-lockstep``; for ``servo`` the companion switches SERVO1-8_FUNCTION to RCIN9-16)
 and ``wavekeep companion`` (``--lockstep``), which talks to the stand-in over
 its own MAVLink endpoint. The launcher is the pilot's ground station: it arms
 the vehicle in MANUAL, and the companion engages. The time series joins the
@@ -41,7 +41,7 @@ from .launcher import (
 from .results import RunResult, mission_results
 from .run import write_run
 
-__all__ = ["METHODS", "launch_companion", "stand_in_args"]
+__all__ = ["METHODS", "companion_argv", "launch_companion", "stand_in_args"]
 
 METHODS = ("rc", "servo")
 
@@ -49,19 +49,18 @@ METHODS = ("rc", "servo")
 def stand_in_args(method: str) -> list[str]:
     """The stand-in ArduSub's settings for a method: its own control off; the aided EKF (IMU and DVL, as
     ArduSub's EKF3, not a thrust model that cannot see the waves the companion's FF balances); rc: sticks to
-    PWM without motor-lag compensation, as ArduSub's mixer (the companion compensates); servo: pass-through."""
+    PWM without motor-lag compensation, as ArduSub's mixer (the companion compensates)."""
     args = ["--set", "WK_FF_ENABLE=0", "--set", "FS_GCS_ENABLE=0", "--set", "WK_EKF_MODE=1", "--no-forecast",
             "--companion-lockstep"]
     if method == "rc":        # ArduSub's mixer turns sticks into PWM without motor-lag compensation
         args += ["--set", "WK_MOT_COMP=0"]
-    if method == "servo":
-        for n in range(1, 9):
-            args += ["--set", f"SERVO{n}_FUNCTION={58 + n}"]
+    # servo: the outputs boot as motors, as ArduSub's; the companion switches them to RCIN9-16 while it flies
     return args
 
 
 def launch_companion(opt: SimOptions, method: str = "rc", companion_port: int = 14770, progress=None) -> dict:
-    """Run one mission with the companion flying the stand-in; returns the results document (also in DIR)."""
+    """Run one mission with the companion flying the stand-in (the real ArduSub SITL:
+    :mod:`~sitl.harness.ardusub_companion`); returns the results document (also in DIR)."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
     with interrupt_leaves_nothing(Path(opt.out)):
@@ -113,14 +112,21 @@ def _start(opt: SimOptions, method: str, companion_port: int, seed: int, duratio
                *stand_in_args(method), *[a for s in opt.extra_params for a in ("--set", s)]]
     children.append(Child("ardusub", ardusub, out / "ardusub.log", env))
     wait_ready(children, opt.ready_timeout_s)
-    companion = [*cli, "companion", "--autopilot", f"udpin:127.0.0.1:{companion_port}", "--lockstep",
+    children.append(Child("companion", companion_argv(cli, configs, spec, method, companion_port, netcfg, out,
+                                                       lockstep=True), out / "companion.log", env))
+    wait_ready(children, opt.ready_timeout_s)
+
+
+def companion_argv(cli: list[str], configs: list[str], spec, method: str, port: int, netcfg: Path, out: Path,
+                   lockstep: bool) -> list[str]:
+    """``wavekeep companion``'s command line for a run: the method, the forecast (C-PD+FF), the overrides."""
+    companion = [*cli, "companion", "--autopilot", f"udpin:127.0.0.1:{port}", *(["--lockstep"] if lockstep else []),
                  "--method", method, *configs, "--log", str(out / "companion_ticks.csv")]
     if spec.ff:
         companion += ["--forecast", "zenoh", "--network", str(netcfg)]
     for name, value in {**spec.implied_params(), **spec.overrides}.items():   # the law (WK_CTRL_LAW) included
         companion += ["--set", f"{name}={value!r}"]
-    children.append(Child("companion", companion, out / "companion.log", env))
-    wait_ready(children, opt.ready_timeout_s)
+    return companion
 
 
 def _fly(opt: SimOptions, duration: float, title: str, out: Path, children: list[Child], progress) -> float:

@@ -137,9 +137,12 @@ def _check_lockstep(opt: SimOptions, fw_stats: dict) -> None:
 
 
 def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children: list[Child],
-                wait_plant: bool = True) -> tuple[list[str], list[str], dict[str, str], Path]:
+                wait_plant: bool = True, plant_args: tuple[str, ...] = (), sea_start: float = 0.0,
+                forecast: bool | None = None) -> tuple[list[str], list[str], dict[str, str], Path]:
     """The forecast service (C-PD+FF only) and the plant, each waited for until ready (the plant only if
-    ``wait_plant``: a caller may start the vehicle alongside it and wait for both).
+    ``wait_plant``: a caller may start the vehicle alongside it and wait for both). ``plant_args`` are
+    more ``wavekeep plant`` options; ``sea_start`` (s) the vehicle's clock at the sea's t = 0 (both);
+    ``forecast`` starts the forecast service or not (None: for C-PD+FF).
 
     Returns what the vehicle's processes are started with: the CLI prefix, the
     mission/vehicle options, the environment and the zenoh network config.
@@ -156,9 +159,11 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children
     configs = ["--mission", spec.mission, "--vehicle", spec.vehicle]
     # The world's errors (docs/sea-errors.md): the sea's keys reach the plant (and its buoy) and the forecast
     sea_set = [a for k, v in spec.sea.items() for a in ("--sea-set", f"{k}={json.dumps(v)}")]
-    if spec.ff:
+    if spec.ff if forecast is None else forecast:
         fc = [*cli, "forecast", "--case", spec.case, "--seed", str(seed), "--forecast", spec.forecast,
-              "--network", str(netcfg), "--horizon", str(duration + 60.0), *sea_set]
+              "--network", str(netcfg), "--horizon", str(sea_start + duration + 60.0), *sea_set]
+        if sea_start:
+            fc += ["--sea-start", repr(sea_start)]
         if spec.dswp.get("deep_water"):
             fc.append("--deep-water")
         if spec.snr_db is not None:
@@ -166,10 +171,12 @@ def start_world(opt: SimOptions, seed: int, duration: float, out: Path, children
         children.append(Child("forecast", fc, out / "forecast.log", env))
         wait_ready(children, opt.ready_timeout_s)
     plant = [*cli, "plant", "--case", spec.case, "--seed", str(seed), "--port", str(opt.plant_port), *configs,
-             "--log", str(out / "plant_truth.csv"), *sea_set]
+             "--log", str(out / "plant_truth.csv"), *sea_set, *plant_args]
+    if sea_start:
+        plant += ["--sea-start", repr(sea_start)]
     if spec.true_vehicle:
         plant += ["--true-vehicle", spec.true_vehicle]
-    if spec.ff:
+    if spec.ff if forecast is None else forecast:
         plant += ["--buoy-network", str(netcfg)]
     children.append(Child("plant", plant, out / "plant.log", env))
     if wait_plant:

@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import argparse
+import math
 import socket
 import sys
+from pathlib import Path
 
 from . import options as o
 from . import view
@@ -27,6 +29,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--horizon", type=o.positive, default=10.0, help="oracle: validity after the newest buoy time (s)")
     p.add_argument("--deep-water", action="store_true", help="dswp: deep-water wavenumbers (the authors' choice)")
     p.add_argument("--network", default="network", help="network config: a name in configs/ or a path")
+    p.add_argument("--sea-start", type=float, default=0.0, metavar="S",
+                   help="the vehicle's clock (s) at the sea's t = 0: a plant run with --sea-start S")
     o.add_world(p, vehicle=False)
     p.set_defaults(func=cmd_forecast)
 
@@ -54,6 +58,14 @@ def add_parsers(sub) -> None:
                    help="fly with `wavekeep companion` (method rc or servo) through the firmware as a stand-in "
                         "ArduSub (docs/companion.md)")
     p.add_argument("--companion-port", type=o.port, default=14770, help="UDP port of the companion's MAVLink")
+    p.add_argument("--autopilot", default=None, metavar="ardusub:PATH",
+                   help="fly the real ArduSub SITL binary at PATH instead of Wavekeep's firmware (its own hold, or "
+                        "the companion's with --companion; docs/ardusub.md)")
+    p.add_argument("--ardusub-mode", choices=("guided", "alt_hold", "poshold"), default="guided",
+                   help="--autopilot without --companion: ArduSub's mode for the mission (after a GUIDED dive)")
+    p.add_argument("--ardusub-set", action="append", default=None, metavar="NAME=VALUE",
+                   help="--autopilot: an ArduSub parameter to set before arming (repeatable), e.g. "
+                        "SIM_BAR2_RND=0.01 (a Bar30's noise, not SITL's 0.2 m)")
     p.add_argument("--no-plots", action="store_true", help="skip time_history.png")
     view.add_record_options(p, live=True)
     o.add_out(p, required=False, default=None,
@@ -102,9 +114,7 @@ def _sim_ports(args: argparse.Namespace) -> dict[str, int]:
 def default_out(args: argparse.Namespace) -> str:
     """``sim``'s folder when no --out is given, named after the options that change the run: ``runs/sim-W1-cpd_ff``,
     then ``-15dB`` / ``-dswp``, ``-seed7``, ``-60s``, ``-companion-rc`` when given (so two different runs never share
-    a folder)."""
-    from pathlib import Path
-
+    a folder); ``-ardusub-MODE`` (its own hold) or ``-ardusub`` (under the companion) with --autopilot."""
     parts = ["sim", Path(args.case).stem if args.case.endswith((".yaml", ".yml")) else args.case, args.controller]
     if args.forecast_snr_db is not None:
         parts.append(f"{args.forecast_snr_db:g}dB")
@@ -116,12 +126,14 @@ def default_out(args: argparse.Namespace) -> str:
         parts.append(f"{args.duration:g}s")
     if args.companion:
         parts.append(f"companion-{args.companion}")
+    if args.autopilot:
+        parts.append("ardusub" if args.companion else f"ardusub-{args.ardusub_mode}")
     return str(Path("runs") / "-".join(parts))
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
     """The plant, the forecast service and the firmware as processes; the launcher flies them as a GCS."""
-    from ..launcher import LaunchError, SimOptions, launch
+    from ..launcher import LaunchError, SimOptions
 
     given = _given_ports(args)
     names = [name for name, port in given.items() if port is not None]
@@ -133,6 +145,14 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if set(spec.dswp) - {"deep_water"}:
         raise o.UsageError(f"--dswp-set {', '.join(sorted(set(spec.dswp) - {'deep_water'}))}: the forecast service "
                            "takes only deep_water; the other DSWP options are for `wavekeep run`")
+    binary = None
+    ardusub_params = _ardusub_params(args.ardusub_set, args.autopilot)
+    if args.autopilot is not None:
+        from ..ardusub import parse_autopilot
+        try:
+            binary = parse_autopilot(args.autopilot)
+        except ValueError as exc:
+            raise o.UsageError(str(exc)) from None
     if args.out is None:
         args.out = default_out(args)
     o.check_configs(args, spec)
@@ -145,11 +165,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                          gcs_port=ports["--gcs-port"], zenoh_port=ports["--zenoh-port"], plots=not args.no_plots,
                          downlink_tap=live.tap if live else None)
         try:
-            if args.companion:
-                from ..companion_launch import launch_companion
-                r = launch_companion(opt, args.companion, args.companion_port, progress=None)
-            else:
-                r = launch(opt, progress=None)
+            r = _fly_sim(args, opt, binary, ardusub_params)
         except LaunchError as exc:
             print(f"wavekeep sim: {exc}", file=sys.stderr)
             return exc.status
@@ -161,6 +177,23 @@ def cmd_sim(args: argparse.Namespace) -> int:
         if live:
             live.stop()
     return 0
+
+
+def _fly_sim(args: argparse.Namespace, opt, binary: Path | None, ardusub_params: dict[str, float]) -> dict:
+    """The mission with what flies it: Wavekeep's firmware, the companion on the stand-in or on the real
+    ArduSub, or the real ArduSub's own hold."""
+    if args.companion and binary is not None:
+        from ..ardusub_companion import launch_ardusub_companion
+        return launch_ardusub_companion(opt, binary, args.companion, args.companion_port, progress=None,
+                                        params=ardusub_params)
+    if args.companion:
+        from ..companion_launch import launch_companion
+        return launch_companion(opt, args.companion, args.companion_port, progress=None)
+    if binary is not None:
+        from ..ardusub_launch import launch_ardusub
+        return launch_ardusub(opt, binary, args.ardusub_mode, progress=None, params=ardusub_params)
+    from ..launcher import launch
+    return launch(opt, progress=None)
 
 
 def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
@@ -182,10 +215,28 @@ def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
         live.linger()
 
 
+def _ardusub_params(items: list[str] | None, autopilot: str | None) -> dict[str, float]:
+    """``--ardusub-set NAME=VALUE`` items as NAME → number (only with ``--autopilot``)."""
+    if items and autopilot is None:
+        raise o.UsageError("--ardusub-set applies only with --autopilot ardusub:PATH")
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, eq, text = item.partition("=")
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not eq or not name.strip() or not math.isfinite(value):
+            raise o.UsageError(f"--ardusub-set {item}: expected NAME=NUMBER")
+        out[name.strip().upper()] = value
+    return out
+
+
 def cmd_forecast(args: argparse.Namespace) -> int:
     """The forecast service (shore side) on zenoh, until Ctrl-C / SIGTERM."""
     import signal
     import threading
+    from dataclasses import replace
 
     import numpy as np
 
@@ -204,6 +255,9 @@ def cmd_forecast(args: argparse.Namespace) -> int:
     if args.forecast == "oracle":
         _, forecast_seed = derive_seeds(sea.seed)
         oracle = oracle_forecast(sea.components, args.forecast_snr_db, np.random.default_rng(forecast_seed))
+        if args.sea_start:
+            # phases referred to the sea's t = 0, which is the vehicle's sea_start: the same components, later
+            oracle = replace(oracle, time_base=oracle.time_base + args.sea_start)
     x_vehicle = load_mission_config(args.mission)["setpoint"]["x"]
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
