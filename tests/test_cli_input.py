@@ -43,6 +43,8 @@ def test_out_not_empty_needs_force(tmp_path, capsys):
              "reproduce.json"]                   # a `wavekeep sim` or `reproduce` left these; openloop writes fewer
     for name in stale:
         (tmp_path / name).write_text("stale")
+    (tmp_path / "ardusub" / "logs").mkdir(parents=True)           # the real ArduSub's working folder
+    (tmp_path / "ardusub" / "eeprom.bin").write_text("stale")
     (tmp_path / "notes.txt").write_text("mine")
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "old.log").write_text("mine too")

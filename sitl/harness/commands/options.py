@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,9 @@ MAX_DURATION_S = 86400.0
 RUN_FILES = ("results.json", "run.json", "timeseries.csv", "*.png", "*.log", "mission.tlog", "reproduce.json",
              "firmware_ticks.*", "companion_ticks.*", "plant_truth.csv", "network.yaml", "*.rrd")
 """What a run leaves in its folder: with ``--force`` these are removed before the new run writes."""
+
+RUN_FOLDERS = ("ardusub",)
+"""Sub-folders a run writes (the real ArduSub's working folder: its logs and parameters), removed likewise."""
 
 
 class UsageError(Exception):
@@ -160,6 +164,9 @@ def check_out(path: str | Path, kind: str = "dir", force: bool = False, option: 
             for f in p.glob(pattern):
                 if f.is_file():
                     f.unlink()
+        for name in RUN_FOLDERS:
+            if (p / name).is_dir():
+                shutil.rmtree(p / name)
     return p
 
 
