@@ -63,7 +63,7 @@ def ardusub_binary() -> str:
     """The binary's path from ``WAVEKEEP_ARDUSUB``; the test is skipped, with the reason, without one."""
     path = os.environ.get(ENV)
     if not path:
-        pytest.skip(f"{ENV} is not set: no real ArduSub SITL binary to compare with")
+        pytest.skip(f"{ENV} is not set: no real ArduSub SITL binary here")
     if not os.access(path, os.X_OK):
         pytest.skip(f"{ENV}={path} is not an executable file")
     return path

@@ -20,9 +20,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 os.environ["MAVLINK20"] = "1"
+from ardusub_pair import ENV, ardusub_binary
 from mavlink_gcs import GroundStation
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -34,7 +34,6 @@ from sitl.sea import Sea
 
 __all__ = ["ENV", "SubRig", "ardusub_binary", "motor_axes"]
 
-ENV = "WAVEKEEP_ARDUSUB"
 CLI = [sys.executable, "-m", "sitl.harness.cli"]
 GUIDED, ALT_HOLD, MANUAL = 4, 2, 19
 STALE_S = 2.0
@@ -43,15 +42,6 @@ this process (the plant) starve each other for half a second now and then; 0.5 s
 STILL_S = 1e6
 """The sea starts this late: the rig's water is still (the tests check behaviour, not wave response)."""
 
-
-def ardusub_binary() -> str:
-    """The binary's path from ``WAVEKEEP_ARDUSUB``; the test is skipped, with the reason, without one."""
-    path = os.environ.get(ENV)
-    if not path:
-        pytest.skip(f"{ENV} is not set: no real ArduSub SITL binary here")
-    if not os.access(path, os.X_OK):
-        pytest.skip(f"{ENV}={path} is not an executable file")
-    return path
 
 
 def motor_axes(pwm) -> dict[str, float]:

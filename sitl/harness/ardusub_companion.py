@@ -30,10 +30,11 @@ from .ardusub_launch import (
     autopilot_results,
     boot,
     dive,
+    mission_processes,
     truth_timeseries,
     world_args,
 )
-from .children import Child, LaunchError, check_port, wait_ready
+from .children import Child, LaunchError, check_port, interrupt_leaves_nothing, wait_ready
 from .companion_launch import METHODS, companion_argv
 from .launcher import SimOptions, _GroundStation, prepare_run, start_world
 from .progress import ProgressBar
@@ -63,10 +64,8 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
         check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
     sea_start = cfg["sea_start_s"]
     speedup = 1.0 if opt.speedup is None else opt.speedup
-    children: list = []
-    gcs = None
-    try:
-        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
+    statuses: dict[str, int | None] = {}
+    with interrupt_leaves_nothing(out), mission_processes(opt, out, statuses) as (gcs, children):
         cli, configs, env, netcfg = start_world(opt, sea.seed, duration, out, children, plant_args=world_args(cfg),
                                                 sea_start=sea_start)
         children.append(ArduSubProcess(binary, cfg, out / "ardusub", opt.plant_port, opt.gcs_port, companion_port,
@@ -83,12 +82,6 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
         wait_ready(children, opt.ready_timeout_s)
         wall = _fly(gcs, cfg, setpoint, duration, f"sim --companion {method} ArduSub {sea.name} {spec.label}",
                     progress)
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
-    finally:
-        if gcs is not None:
-            gcs.close()
-        statuses = {c.name: c.stop() for c in reversed(children)}
     log = truth_timeseries(out / "plant_truth.csv", sea, sea_start, duration, setpoint)
     ticks = np.loadtxt(out / "companion_ticks.csv", delimiter=",", skiprows=1, ndmin=2)
     join_ticks(log, ticks, sea_start)
