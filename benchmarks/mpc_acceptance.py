@@ -1,6 +1,9 @@
 """The preview MPC's acceptance checks on a campaign's rows (``configs/campaign/mpc_20_seeds.yaml``).
 
-    python -m benchmarks.mpc_acceptance runs/mpc_20_seeds/missions.csv [--out benchmarks/results/mpc_20_seeds.json]
+    python -m benchmarks.mpc_acceptance runs/mpc_20_seeds/missions.csv [MORE.csv ...] [--out F.json] [--figure F.png]
+
+With more than one file, a later file's mission replaces an earlier one's of the same case, seed and variant
+(a campaign that flew some variants again after a change).
 
 Each MPC variant is compared with the robust FF flown with the same forecast and estimator, seed by seed
 (``mpc_exact`` with ``ff_exact``, ``mpc_15db`` with ``ff_15db``, ``mpc_dswp`` with ``ff_dswp``,
@@ -40,6 +43,12 @@ def _pitch_deg(row: dict[str, str], key: str) -> float:
     return math.degrees(_f(row, key))
 
 
+def flown(rows: list[dict[str, str]]) -> dict[tuple[str, int, str], dict[str, str]]:
+    """(case, seed, variant) → the last row given for it, if that mission flew (a failed one counts as missing)."""
+    last = {(r["case"], int(r["seed"]), r["variant"]): r for r in rows}
+    return {k: r for k, r in last.items() if r["status"] == "ok"}
+
+
 def compare(by: dict, cases: list[str], seeds: list[int], mpc: str, ff: str) -> dict:
     """Per case: the reduction's mean, CI, min, share of seeds won, and both variants' mean RMSE and power."""
     out: dict = {}
@@ -67,7 +76,7 @@ def compare(by: dict, cases: list[str], seeds: list[int], mpc: str, ff: str) -> 
 
 
 def acceptance(rows: list[dict[str, str]]) -> dict:
-    by = {(r["case"], int(r["seed"]), r["variant"]): r for r in rows if r["status"] == "ok"}
+    by = flown(rows)
     cases = sorted({c for c, _, _ in by})
     seeds = sorted({s for _, s, _ in by})
     figures = {mpc: compare(by, cases, seeds, mpc, ff) for mpc, ff in PAIRS.items()}
@@ -119,7 +128,7 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    by = {(r["case"], int(r["seed"]), r["variant"]): r for r in rows if r["status"] == "ok"}
+    by = flown(rows)
     cases = sorted({c for c, _, _ in by})
     seeds = sorted({s for _, s, _ in by})
     names = {"mpc_exact": "exact", "mpc_15db": "15 dB", "mpc_dswp": "DSWP, 10 dB buoy",
@@ -156,13 +165,14 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("missions_csv")
+    ap.add_argument("missions_csv", nargs="+", help="campaigns' missions.csv; later ones replace earlier missions")
     ap.add_argument("--out", default=None, help="also write the document as JSON here")
     ap.add_argument("--figure", default=None, help="also draw each seed's reduction against its FF (PNG)")
     args = ap.parse_args(argv)
+    rows = [r for path in args.missions_csv for r in read_rows(path)]
     if args.figure:
-        figure(read_rows(args.missions_csv), args.figure)
-    return emit_checks(acceptance(read_rows(args.missions_csv)), args.out)
+        figure(rows, args.figure)
+    return emit_checks(acceptance(rows), args.out)
 
 
 if __name__ == "__main__":
