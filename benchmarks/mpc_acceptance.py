@@ -32,6 +32,8 @@ from benchmarks.common import emit_checks, read_rows
 from benchmarks.ff_acceptance import DOF, _bootstrap_ci
 
 PAIRS = {"mpc_exact": "ff_exact", "mpc_15db": "ff_15db", "mpc_dswp": "ff_dswp", "mpc_exact_aided": "ff_exact_aided"}
+NAMES = {"mpc_exact": "exact", "mpc_15db": "15 dB", "mpc_dswp": "DSWP, 10 dB buoy",
+         "mpc_exact_aided": "exact, aided EKF"}
 
 
 def _f(row: dict[str, str], key: str) -> float:
@@ -67,6 +69,12 @@ def compare(by: dict, cases: list[str], seeds: list[int], mpc: str, ff: str) -> 
         out[c] = {"seeds": len(pairs), "mean_reduction_pct": float(red.mean()), "ci95_pct": _bootstrap_ci(red),
                   "min_pct": float(red.min()), "share_of_seeds_won": float(np.mean(red > 0)),
                   "mean_rmse": mean_rmse, "mean_power_w": power,
+                  "worst_max_pitch_deg": {v: max(_pitch_deg(by[(c, s, v)], "max_abs_error_pitch") for s in pairs)
+                                          for v in (mpc, ff)},
+                  # the largest excess of the MPC's maximum error over the FF's on the same seed (m)
+                  "worst_max_excess_m": {d: max(_f(by[(c, s, mpc)], f"max_abs_error_{d}")
+                                                - _f(by[(c, s, ff)], f"max_abs_error_{d}") for s in pairs)
+                                         for d in ("surge", "heave")},
                   # the mean RMSE over DoF (pitch in degrees) and seeds, per variant
                   "mean_rmse_all": {v: float(np.mean([_f(by[(c, s, v)], f"rmse_{d}") * (180 / math.pi if d == "pitch"
                                                                                         else 1.0)
@@ -131,8 +139,6 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
     by = flown(rows)
     cases = sorted({c for c, _, _ in by})
     seeds = sorted({s for _, s, _ in by})
-    names = {"mpc_exact": "exact", "mpc_15db": "15 dB", "mpc_dswp": "DSWP, 10 dB buoy",
-             "mpc_exact_aided": "exact, aided EKF"}
     fig, ax = plt.subplots(figsize=(9, 4.2))
     width = 0.8 / len(PAIRS)
     lowest = 0.0
@@ -147,7 +153,7 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
             lo, hi = _bootstrap_ci(np.array(red))
             ax.plot(xc + np.linspace(-0.25, 0.25, len(red)) * width, red, ".", color=f"C{j}", alpha=0.5)
             ax.errorbar([xc], [np.mean(red)], yerr=[[np.mean(red) - lo], [hi - np.mean(red)]], fmt="o",
-                        color=f"C{j}", capsize=4, label=names[mpc] if i == 0 else None)
+                        color=f"C{j}", capsize=4, label=NAMES[mpc] if i == 0 else None)
     ax.axhline(25.0, color="k", lw=0.8, ls="--")
     ax.text(-0.45, 25.5, "25 %: the aim with the exact forecast", ha="left", va="bottom", fontsize=8)
     ax.set_xlim(-0.5, len(cases) - 0.5)
@@ -163,16 +169,42 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
     plt.close(fig)
 
 
+def markdown(doc: dict) -> str:
+    """The campaign table of ``docs/mpc.md``: per forecast and sea state, the MPC against its FF."""
+    lines = ["| forecast | sea | reduction, mean [95 % CI] | min | seeds won | RMSE MPC (m, m, °) | RMSE FF "
+             "| worst max pitch MPC / FF | max excess surge / heave | power MPC / FF (W) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for mpc, ff in PAIRS.items():
+        for c in doc["cases"]:
+            f = doc["figures"].get(mpc, {}).get(c)
+            if not f:
+                continue
+            rm, rf = f["mean_rmse"][mpc], f["mean_rmse"][ff]
+            rmse = lambda r: f"{r['surge']:.3f}, {r['heave']:.3f}, {math.degrees(r['pitch']):.2f}"  # noqa: E731
+            lo, hi = f["ci95_pct"]
+            lines.append(f"| {NAMES[mpc]} | {c} | {f['mean_reduction_pct']:.1f} % [{lo:.1f}, {hi:.1f}] "
+                         f"| {f['min_pct']:.1f} % | {100 * f['share_of_seeds_won']:.0f} % | {rmse(rm)} | {rmse(rf)} "
+                         f"| {f['worst_max_pitch_deg'][mpc]:.1f}° / {f['worst_max_pitch_deg'][ff]:.1f}° "
+                         f"| {f['worst_max_excess_m']['surge']:+.2f} / {f['worst_max_excess_m']['heave']:+.2f} m "
+                         f"| {f['mean_power_w'][mpc]:.0f} / {f['mean_power_w'][ff]:.0f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("missions_csv", nargs="+", help="campaigns' missions.csv; later ones replace earlier missions")
     ap.add_argument("--out", default=None, help="also write the document as JSON here")
     ap.add_argument("--figure", default=None, help="also draw each seed's reduction against its FF (PNG)")
+    ap.add_argument("--markdown", action="store_true", help="print docs/mpc.md's campaign table instead of the JSON")
     args = ap.parse_args(argv)
     rows = [r for path in args.missions_csv for r in read_rows(path)]
     if args.figure:
         figure(rows, args.figure)
-    return emit_checks(acceptance(rows), args.out)
+    doc = acceptance(rows)
+    if args.markdown:
+        print(markdown(doc))
+        return 0 if all(c["pass"] for c in doc["checks"].values()) else 1
+    return emit_checks(doc, args.out)
 
 
 if __name__ == "__main__":
