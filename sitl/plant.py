@@ -152,10 +152,16 @@ class Plant:
             self.pressure_depth = float(s.eta[1] + head)
 
     def wave_load(self, eta, nu, t) -> np.ndarray:
-        """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at plant time t."""
-        if self._calm(t):
+        """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at plant time t
+        (s, or an array of T times: the result is then (T, 3)); zero while the sea is still (before
+        :attr:`sea_start`)."""
+        if np.ndim(t) == 0 and self._calm(float(t)):
             return np.zeros(3)
-        return wave_load(self.vehicle, self.sea.components, eta, nu, t - self.sea_start, self.strips, self.current_x)
+        tau = wave_load(self.vehicle, self.sea.components, eta, nu, np.asarray(t, dtype=float) - self.sea_start,
+                        self.strips, self.current_x)
+        if np.ndim(t) == 0:
+            return tau
+        return np.where((np.asarray(t) < self.sea_start)[:, None], 0.0, tau)
 
     def step(self, pwm, dt: float) -> PlantState:
         """Hold the eight PWM commands (µs) for dt seconds and advance the world.

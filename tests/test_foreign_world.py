@@ -68,6 +68,10 @@ def test_still_water_until_the_sea_starts_then_the_same_sea(sea):
     for tau in (0.0, 3.3, 17.0):
         np.testing.assert_allclose(late.wave_load(eta, nu, 30.0 + tau), now.wave_load(eta, nu, tau), rtol=1e-12,
                                    atol=1e-12)
+    times = np.array([0.0, 29.99, 30.0, 33.3, 47.0])        # a series of times, as the load tests ask for
+    series = late.wave_load(eta, nu, times)
+    assert series.shape == (5, 3) and not series[:2].any()
+    np.testing.assert_allclose(series[2:], now.wave_load(eta, nu, times[2:] - 30.0), rtol=1e-12, atol=1e-12)
 
 
 def _six_dof(sea) -> Plant:
