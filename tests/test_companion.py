@@ -207,3 +207,16 @@ def test_companion_lockstep_run_is_deterministic(tmp_path):
     assert a["rmse"] == b["rmse"]
     assert a["companion"]["telemetry_to_command_ms"]["n"] > 100
     assert json.loads((tmp_path / "a" / "results.json").read_text())["rmse"]["heave"] < 0.2
+
+
+def test_the_companion_flies_the_mpc_on_the_forecast(tmp_path):
+    """Companion mode with the preview MPC (WK_CTRL_LAW 1, implied by the controller) and its forecast over zenoh:
+    every tick solved by the MPC, none flown as the fallback, and the station held."""
+    opt = SimOptions(RunSpec(case="W1", controller="mpc", duration=8.0), out=str(tmp_path / "mpc"),
+                     plant_port=free_port(), gcs_port=free_port(), zenoh_port=free_port(socket.SOCK_STREAM))
+    r = launch_companion(opt, "rc", free_port())
+    solver = r["solver"]
+    assert solver["law"] == "mpc"
+    assert solver["ticks"] > 100 and solver["solved"] == solver["ticks"]
+    assert solver["fallback_share"] == 0.0
+    assert r["rmse"]["surge"] < 0.1 and r["rmse"]["heave"] < 0.1
