@@ -65,10 +65,15 @@ class MPCSettings(NamedTuple):
     max_iter: int
     budget_ms: float
     disturbance: bool
-    vel_tc: float             # s: the initial u, w blended into the last plan's prediction
+    vel_blend: float          # the estimate's share of the initial u, w: 1 − e^{−h/WK_MPC_VEL_TC} (1: no blend)
     block: int                # steps a demand is held over after the first
     e_max: float              # m: the largest position error the plan is asked to correct
     sqp: int                  # QPs a tick, each about the last one's plan (1: the real-time iteration)
+
+
+def _blend(h: float, tc: float) -> float:
+    """A first-order low-pass's gain per step h (s) for time constant tc (s); 1 (no filtering) when tc is 0."""
+    return float(1.0 - np.exp(-h / tc)) if tc > 0.0 else 1.0
 
 
 def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
@@ -82,7 +87,7 @@ def mpc_settings(p: ParameterTable, h: float) -> MPCSettings:
     scale = np.array(p.axes("WK_TAU_MAX"))
     offsets, a, b = stage_times(dt, exact_steps=1)      # the command's own step exactly, the rest interpolated
     return MPCSettings(dt, a_mid, e, offsets, a, b, np.cumsum(dt), cost, scale, int(p["WK_MPC_ITER"]),
-                       float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), float(p["WK_MPC_VEL_TC"]),
+                       float(p["WK_MPC_BUDGET"]), bool(p["WK_MPC_DIST"]), _blend(h, float(p["WK_MPC_VEL_TC"])),
                        int(p["WK_MPC_BLK"]), float(p["WK_MPC_EMAX"]), int(p["WK_MPC_SQP"]))
 
 
@@ -116,6 +121,7 @@ class PreviewMPC:
         self.stats = MPCStats()
         self._qp: CondensedQP | None = None
         self._qp_settings: MPCSettings | None = None
+        self._qp_key: tuple | None = None                # the values the QP was built from
         self._poly: WrenchPolytope | None = None
         self._plan: tuple[float, np.ndarray] | None = None     # (time the plan's command started, V (N, 3))
         self._falling_back = False
@@ -202,18 +208,25 @@ class PreviewMPC:
         """
         x = np.array(x_ahead, dtype=float)
         pred = self._predicted_uw
-        if pred is not None and st.vel_tc > 0.0 and np.isfinite(x[3:5]).all():
-            a = 1.0 - np.exp(-self.h / st.vel_tc)
+        if pred is not None and st.vel_blend < 1.0 and np.isfinite(x[3:5]).all():
+            a = st.vel_blend
             x[3], x[4] = pred[0] + a * (x[3] - pred[0]), pred[1] + a * (x[4] - pred[1])
         return x
 
     def _qp_for(self, st: MPCSettings) -> CondensedQP:
-        """The QP of these settings, built again only when a parameter has changed (a new settings object)."""
-        if self._qp is None or self._qp_settings is not st:
-            f_max = self.params["WK_THR_MAX"]
+        """The QP of these settings, built again (and its warm start dropped) only when a value it is built
+        from has changed: any parameter change makes new settings, most leave the QP as it is."""
+        if self._qp is not None and self._qp_settings is st:
+            return self._qp
+        f_max = float(self.params["WK_THR_MAX"])
+        key = (st.dt.tobytes(), st.e.tobytes(), st.scale.tobytes(), st.max_iter, st.block, f_max,
+               st.cost.q.tobytes(), st.cost.q_terminal, st.cost.r.tobytes(), st.cost.rd.tobytes(),
+               st.cost.near_pitch, st.cost.near_s)
+        if self._qp is None or key != self._qp_key:
             self._poly = WrenchPolytope.from_allocation(self.B, -f_max, f_max)
             self._qp = CondensedQP(st.dt, st.e, st.scale, self._poly, st.max_iter, st.block, st.cost)
-            self._qp_settings = st
+            self._qp_key = key
+        self._qp_settings = st
         return self._qp
 
     def _nominal(self, t: float, st: MPCSettings, held: np.ndarray) -> np.ndarray:
@@ -239,7 +252,7 @@ class PreviewMPC:
         f = body_flow(c.forecast.components, np.asarray(c.x_ahead[:3], dtype=float), times, self.strips)
         a, b = st.stage_a, st.stage_b
         keep = 0.5 * (times <= c.forecast.forecast.valid_until)[:, None]   # past its window: still water
-        u, w, ax, az = ((v * keep)[a] + (v * keep)[b] for v in (f.u, f.w, f.ax, f.az))
+        u, w, ax, az = (vk[a] + vk[b] for vk in (v * keep for v in (f.u, f.w, f.ax, f.az)))
         return skill_weighted_flow(BodyFlow(f.xs, f.wts, u, w, ax, az), weight)
 
     # ------------------------------------------------------------------ bookkeeping

@@ -171,5 +171,7 @@ class Joystick:
         if ch <= 8 or not self.accessories.set_servo(ch, clip_int(pwm, 0, UINT16_MAX), st.rc, self.rc_inputs(None)):
             self.link.statustext(MAV_SEVERITY.INFO, f"ServoRelayEvent: Channel {ch} is already in use")
             return MAV_RESULT.FAILED
-        self.update(None)
+        # the outputs and readouts now, not a whole update: that would mark the pilot's input stale this tick
+        st.servo = self.accessories.outputs(st.rc, st.rc_in, st.servo)
+        st.sub_info = self.accessories.sub_info(st.servo, self.gain)
         return MAV_RESULT.ACCEPTED
