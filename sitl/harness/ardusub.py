@@ -122,6 +122,13 @@ class ArduSubProcess:
         self._log.close()
         return 0 if self.proc.returncode == -signal.SIGKILL else self.proc.returncode
 
+    def failure(self, timeout: float) -> str | None:
+        """Why it counts as the run's failure: it exited by itself (the SIGKILL that stops it does not count)."""
+        code = self.proc.returncode
+        if code in (0, -signal.SIGKILL):
+            return None
+        return f"{self.name} exited with status {code}:\n{self.tail()}"
+
     def tail(self, n: int = 8) -> str:
         try:
             return "\n".join(self.log_path.read_text(errors="replace").splitlines()[-n:])

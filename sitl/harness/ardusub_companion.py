@@ -30,13 +30,12 @@ from .ardusub_launch import (
     autopilot_results,
     boot,
     dive,
-    mission_processes,
     truth_timeseries,
     world_args,
 )
 from .children import Child, LaunchError, check_port, interrupt_leaves_nothing, wait_ready
 from .companion_launch import METHODS, companion_argv
-from .launcher import SimOptions, _GroundStation, prepare_run, start_world
+from .launcher import SimOptions, _GroundStation, mission_processes, prepare_run, start_world
 from .progress import ProgressBar
 from .results import COLUMN, RunResult
 from .run_files import write_run
@@ -54,6 +53,12 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
     ``params``: ArduSub parameters to set too (``--ardusub-set``), after the config's."""
     if method not in METHODS:
         raise LaunchError(f"--companion takes {' or '.join(METHODS)}, got {method!r}", 2)
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch(opt, binary, method, companion_port, progress, params)
+
+
+def _launch(opt: SimOptions, binary: Path, method: str, companion_port: int, progress,
+            params: dict[str, float] | None) -> dict:
     spec = opt.spec
     cfg = load_ardusub_config()
     cfg["params"].update(params or {})
@@ -65,7 +70,7 @@ def launch_ardusub_companion(opt: SimOptions, binary: Path, method: str, compani
     sea_start = cfg["sea_start_s"]
     speedup = 1.0 if opt.speedup is None else opt.speedup
     statuses: dict[str, int | None] = {}
-    with interrupt_leaves_nothing(out), mission_processes(opt, out, statuses) as (gcs, children):
+    with mission_processes(opt, out, statuses) as (gcs, children):
         cli, configs, env, netcfg = start_world(opt, sea.seed, duration, out, children, plant_args=world_args(cfg),
                                                 sea_start=sea_start)
         children.append(ArduSubProcess(binary, cfg, out / "ardusub", opt.plant_port, opt.gcs_port, companion_port,

@@ -15,7 +15,6 @@ station at its start.
 """
 from __future__ import annotations
 
-import contextlib
 import time
 from pathlib import Path
 
@@ -25,14 +24,13 @@ from sitl.sea import Sea
 
 from .ardusub import ArduSubProcess, load_ardusub_config
 from .children import LaunchError, check_port, interrupt_leaves_nothing
-from .launcher import SimOptions, _GroundStation, prepare_run, start_world
+from .launcher import SimOptions, _GroundStation, mission_processes, prepare_run, start_world
 from .metrics import station_keeping_metrics
 from .progress import ProgressBar
 from .results import COLUMN, TIMESERIES_COLUMNS, RunResult, elevation_along
 from .run_files import write_run
 
-__all__ = ["ARDUSUB_MODES", "autopilot_results", "launch_ardusub", "mission_processes", "truth_timeseries",
-           "world_args"]
+__all__ = ["ARDUSUB_MODES", "autopilot_results", "launch_ardusub", "truth_timeseries", "world_args"]
 
 ARDUSUB_MODES = {"guided": 4, "alt_hold": 2, "poshold": 16}
 """ArduSub's hold modes the launcher can fly (custom mode numbers)."""
@@ -47,30 +45,17 @@ def world_args(cfg: dict) -> tuple[str, ...]:
             "--log-rate", f"{RATE_HZ:g}")
 
 
-@contextlib.contextmanager
-def mission_processes(opt: SimOptions, out: Path, statuses: dict[str, int | None]):
-    """The ground station (``mission.tlog``) and the list of a mission's child processes, yielded; at the end,
-    however it ends, the link closes and the children stop, last started first, their exit statuses put in
-    ``statuses``. Ctrl-C is a :class:`LaunchError` with status 130."""
-    children: list = []
-    gcs = None
-    try:
-        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
-        yield gcs, children
-    except KeyboardInterrupt:
-        raise LaunchError("interrupted", 130) from None
-    finally:
-        if gcs is not None:
-            gcs.close()
-        statuses.update({c.name: c.stop() for c in reversed(children)})
-
-
 def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress=None,
                    params: dict[str, float] | None = None) -> dict:
     """Fly one mission with ArduSub's own controllers; returns the results document (also in DIR).
     ``params``: ArduSub parameters to set too (``--ardusub-set``), after the config's."""
     if mode not in ARDUSUB_MODES:
         raise LaunchError(f"--ardusub-mode takes {', '.join(ARDUSUB_MODES)}, got {mode!r}", 2)
+    with interrupt_leaves_nothing(Path(opt.out)):
+        return _launch_ardusub(opt, binary, mode, progress, params)
+
+
+def _launch_ardusub(opt: SimOptions, binary: Path, mode: str, progress, params: dict[str, float] | None) -> dict:
     cfg = load_ardusub_config()
     cfg["params"].update(params or {})
     sea, _mcfg, duration, setpoint, out = prepare_run(opt)
@@ -78,7 +63,7 @@ def launch_ardusub(opt: SimOptions, binary: Path, mode: str = "guided", progress
     check_port(opt.gcs_port, "GCS")
     sea_start = cfg["sea_start_s"]
     statuses: dict[str, int | None] = {}
-    with interrupt_leaves_nothing(out), mission_processes(opt, out, statuses) as (gcs, children):
+    with mission_processes(opt, out, statuses) as (gcs, children):
         start_world(opt, sea.seed, duration, out, children, plant_args=world_args(cfg), sea_start=sea_start,
                     forecast=False)
         children.append(ArduSubProcess(binary, cfg, out / "ardusub", opt.plant_port, opt.gcs_port,

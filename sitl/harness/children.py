@@ -66,6 +66,16 @@ class Child:
         self._log.close()
         return self.proc.returncode
 
+    def failure(self, timeout: float) -> str | None:
+        """Why the stopped child counts as the run's failure (killed before its log was written, or a non-zero
+        exit), or None."""
+        if self.killed:
+            return (f"{self.name} did not finish writing its log within {timeout:g} s of being told to stop "
+                    "(a very busy machine?) and was killed: the run is incomplete")
+        if self.proc.returncode != 0:
+            return f"{self.name} exited with status {self.proc.returncode}:\n{self.tail()}"
+        return None
+
     def tail(self, n: int = 8) -> str:
         try:
             return "\n".join(self.log_path.read_text().splitlines()[-n:])
@@ -94,11 +104,9 @@ def stop_children(children: list[Child], timeout: float, interrupted: bool = Fal
     statuses = {c.name: c.stop(timeout) for c in reversed(children)}
     if not interrupted:
         for c in children:
-            if c.killed:
-                raise LaunchError(f"{c.name} did not finish writing its log within {timeout:g} s of being told "
-                                  f"to stop (a very busy machine?) and was killed: the run is incomplete")
-            if c.proc.returncode != 0:
-                raise LaunchError(f"{c.name} exited with status {c.proc.returncode}:\n{c.tail()}")
+            why = c.failure(timeout)
+            if why:
+                raise LaunchError(why)
     return statuses
 
 

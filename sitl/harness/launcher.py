@@ -96,20 +96,10 @@ def _launch(opt: SimOptions, progress) -> dict:
     check_port(opt.gcs_port, "GCS")
     if spec.ff:
         check_port(opt.zenoh_port, "zenoh", socket.SOCK_STREAM)
-    children: list[Child] = []
-    gcs = None
-    flown = False
-    try:
-        # Listening before the firmware starts: its first heartbeat (1 Hz) and streams wait in the
-        # socket instead of being lost, so the flight need not wait a second for the next one.
-        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
+    statuses: dict[str, int | None] = {}
+    with mission_processes(opt, out, statuses) as (gcs, children):
         _start_processes(opt, sea.seed, duration, out, children, sea.water_depth)
         wall = _fly(opt, gcs, setpoint, duration, f"sim {sea.name} {spec.label}", progress)
-        flown = True
-    finally:
-        if gcs is not None:
-            gcs.close()
-        statuses = stop_children(children, opt.stop_timeout_s, interrupted=not flown)
     rate = mcfg["control_rate"]
     log = _merge_logs_of(opt, sea, duration, rate, out)
     fw_stats = {}
@@ -125,6 +115,28 @@ def _launch(opt: SimOptions, progress) -> dict:
     })
     write_run(RunResult(results, log), out, plots=opt.plots)
     return results
+
+
+@contextlib.contextmanager
+def mission_processes(opt: SimOptions, out: Path, statuses: dict[str, int | None]):
+    """The ground station (its tlog ``mission.tlog``) and the list the mission's child processes go in,
+    yielded. However the block ends, the link closes and the children stop, the last started first, their exit
+    statuses put in ``statuses``; after a flight that ended normally a child that failed is the run's
+    failure (:func:`~.children.stop_children`).
+
+    The ground station listens before any vehicle starts: its first heartbeat (1 Hz) and streams wait in
+    the socket instead of being lost, so the flight need not wait a second for the next one."""
+    children: list = []
+    gcs = None
+    flown = False
+    try:
+        gcs = _GroundStation(opt.gcs_port, out / "mission.tlog", children, opt.downlink_tap)
+        yield gcs, children
+        flown = True
+    finally:
+        if gcs is not None:
+            gcs.close()
+        statuses.update(stop_children(children, opt.stop_timeout_s, interrupted=not flown))
 
 
 def _check_lockstep(opt: SimOptions, fw_stats: dict) -> None:
