@@ -7,6 +7,7 @@ label, ``--duration 30`` stopped after 582 ticks (the wall clock, start-up inclu
 """
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
@@ -74,3 +75,20 @@ def test_ctrl_c_on_live_exits_130(tmp_path):
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "stopped after" in out and "Traceback" not in err
+
+
+@pytest.mark.processes
+def test_live_without_rerun_flies_and_records_nothing(tmp_path):
+    """Rerun is an optional extra: without it `live` (which records by default) flies its flight, says in one
+    line that there is no recording, and exits 0, as `run` and `sim` do."""
+    hide = tmp_path / "hide" / "rerun"
+    hide.mkdir(parents=True)
+    (hide / "__init__.py").write_text("raise ImportError('rerun hidden by the test')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(hide.parent), os.environ.get("PYTHONPATH")]))}
+    out = subprocess.run([*WAVEKEEP, "live", "--duration", "5", "--speedup", "10", "--mavlink",
+                          f"udpout:127.0.0.1:{free_port()}", "--log", str(tmp_path / "live.log")],
+                         capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert "no recording" in out.stdout + out.stderr and "pip install 'wavekeep[view]'" in out.stdout + out.stderr
+    assert "stopped after 100 ticks" in out.stdout
+    assert not (tmp_path / "live.rrd").exists()

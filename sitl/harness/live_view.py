@@ -124,7 +124,6 @@ class LiveRecorder:
         self._events: list[Event] = []
         self._thrust: np.ndarray | None = None
         self._stop = threading.Event()
-        self.batches = 0
         self._thread = threading.Thread(target=self._run, name="wavekeep-view", daemon=True)
         self._thread.start()
 
@@ -143,7 +142,6 @@ class LiveRecorder:
                 _add_elevations(cols, self.geometry)
                 self._thrust = write_columns(self.rr, self.rec, cols, self.geometry, lag=self.lag,
                                              thrust0=self._thrust)
-                self.batches += 1
         events, self._events = self._events, []     # (after convert, which may add some)
         write_events(self.rr, self.rec, events)
 

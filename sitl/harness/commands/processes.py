@@ -219,16 +219,17 @@ def _ardusub_params(items: list[str] | None, autopilot: str | None) -> dict[str,
     """``--ardusub-set NAME=VALUE`` items as NAME → number (only with ``--autopilot``)."""
     if items and autopilot is None:
         raise o.UsageError("--ardusub-set applies only with --autopilot ardusub:PATH")
+    from firmware_py.params import parse_assignment
+
     out: dict[str, float] = {}
     for item in items or []:
-        name, eq, text = item.partition("=")
         try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not eq or not name.strip() or not math.isfinite(value):
-            raise o.UsageError(f"--ardusub-set {item}: expected NAME=NUMBER")
-        out[name.strip().upper()] = value
+            name, value = parse_assignment(item)
+        except ValueError as exc:
+            raise o.UsageError(f"--ardusub-set {exc}") from None
+        if not math.isfinite(value):
+            raise o.UsageError(f"--ardusub-set {item}: expected NAME=NUMBER, a finite number")
+        out[name.upper()] = value
     return out
 
 

@@ -91,17 +91,21 @@ def live_recording(args: argparse.Namespace, sim, spec, log_path: Path, recorder
     from ..live_view import LiveRecorder, ViewServer
     from ..view_layout import SceneGeometry, ViewUnavailable
 
-    try:
-        server = ViewServer(web_port=args.view_port).start() if args.view else None
-    except ViewUnavailable as exc:
-        say(f"no recording: {exc}")
-        return None
     m = sim.setup
     forecast = m.forecast.components() if m.forecast is not None else None
-    geometry = SceneGeometry.from_configs(spec.vehicle, m.sea.components, float(m.setpoint[0]), forecast=forecast)
     names = ("t", "x", "z", "theta", "u", "w", "q", *TICK_COLUMNS)   # truth at the slot, then the tick's record
-    rec = LiveRecorder(names, geometry, rrd=None if args.no_record else log_path.with_suffix(".rrd"),
-                       grpc_url=server.grpc_url if server else None, name=log_path.stem)
+    server = None
+    try:       # without Rerun (and without --view, which requires it) the flight goes on unrecorded
+        server = ViewServer(web_port=args.view_port).start() if args.view else None
+        geometry = SceneGeometry.from_configs(spec.vehicle, m.sea.components, float(m.setpoint[0]),
+                                              forecast=forecast)
+        rec = LiveRecorder(names, geometry, rrd=None if args.no_record else log_path.with_suffix(".rrd"),
+                           grpc_url=server.grpc_url if server else None, name=log_path.stem)
+    except ViewUnavailable as exc:
+        if server is not None:
+            server.stop()
+        say(f"no recording: {exc}")
+        return None
     from firmware_py.firmware import tick_row
     sim.on_slot = lambda s, r: rec.push([s.t, *s.eta, *s.nu, *tick_row(r)])
     recorder.append(rec)
