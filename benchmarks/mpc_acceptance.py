@@ -29,7 +29,8 @@ import math
 import numpy as np
 
 from benchmarks.common import emit_checks, read_rows
-from benchmarks.ff_acceptance import DOF, _bootstrap_ci
+from benchmarks.ff_acceptance import DOF
+from sitl.harness.stats import bootstrap_ci
 
 PAIRS = {"mpc_exact": "ff_exact", "mpc_15db": "ff_15db", "mpc_dswp": "ff_dswp", "mpc_exact_aided": "ff_exact_aided"}
 NAMES = {"mpc_exact": "exact", "mpc_15db": "15 dB", "mpc_dswp": "DSWP, 10 dB buoy",
@@ -51,22 +52,29 @@ def flown(rows: list[dict[str, str]]) -> dict[tuple[str, int, str], dict[str, st
     return {k: r for k, r in last.items() if r["status"] == "ok"}
 
 
+def reductions(by: dict, c: str, seeds: list[int], mpc: str, ff: str) -> tuple[list[int], np.ndarray]:
+    """The seeds of case ``c`` where both variants flew, and each one's reduction (%): the mean over surge, heave
+    and pitch of 100 (1 − RMSE_MPC / RMSE_FF)."""
+    pairs = [s for s in seeds if (c, s, mpc) in by and (c, s, ff) in by]
+    red = np.array([np.mean([100.0 * (1.0 - _f(by[(c, s, mpc)], f"rmse_{d}") / _f(by[(c, s, ff)], f"rmse_{d}"))
+                             for d in DOF]) for s in pairs])
+    return pairs, red
+
+
 def compare(by: dict, cases: list[str], seeds: list[int], mpc: str, ff: str) -> dict:
     """Per case: the reduction's mean, CI, min, share of seeds won, and both variants' mean RMSE and power."""
     out: dict = {}
     every: list[float] = []
     for c in cases:
-        pairs = [s for s in seeds if (c, s, mpc) in by and (c, s, ff) in by]
+        pairs, red = reductions(by, c, seeds, mpc, ff)
         if not pairs:
             continue
-        red = np.array([np.mean([100.0 * (1.0 - _f(by[(c, s, mpc)], f"rmse_{d}") / _f(by[(c, s, ff)], f"rmse_{d}"))
-                                 for d in DOF]) for s in pairs])
         every.extend(red.tolist())
         mean_rmse = {v: {d: float(np.mean([_f(by[(c, s, v)], f"rmse_{d}") for s in pairs])) for d in DOF}
                      for v in (mpc, ff)}
         power = {v: float(np.mean([sum(_f(by[(c, s, v)], f"mean_power_w_{d}") for d in DOF) for s in pairs]))
                  for v in (mpc, ff)}
-        out[c] = {"seeds": len(pairs), "mean_reduction_pct": float(red.mean()), "ci95_pct": _bootstrap_ci(red),
+        out[c] = {"seeds": len(pairs), "mean_reduction_pct": float(red.mean()), "ci95_pct": list(bootstrap_ci(red)),
                   "min_pct": float(red.min()), "share_of_seeds_won": float(np.mean(red > 0)),
                   "mean_rmse": mean_rmse, "mean_power_w": power,
                   "worst_max_pitch_deg": {v: max(_pitch_deg(by[(c, s, v)], "max_abs_error_pitch") for s in pairs)
@@ -144,13 +152,12 @@ def figure(rows: list[dict[str, str]], path: str) -> None:
     lowest = 0.0
     for j, (mpc, ff) in enumerate(PAIRS.items()):
         for i, c in enumerate(cases):
-            red = [np.mean([100 * (1 - _f(by[(c, s, mpc)], f"rmse_{d}") / _f(by[(c, s, ff)], f"rmse_{d}"))
-                            for d in DOF]) for s in seeds if (c, s, mpc) in by and (c, s, ff) in by]
-            if not red:
+            _, red = reductions(by, c, seeds, mpc, ff)
+            if not red.size:
                 continue
-            lowest = min(lowest, min(red))
+            lowest = min(lowest, float(red.min()))
             xc = i + (j - (len(PAIRS) - 1) / 2) * width
-            lo, hi = _bootstrap_ci(np.array(red))
+            lo, hi = bootstrap_ci(red)
             ax.plot(xc + np.linspace(-0.25, 0.25, len(red)) * width, red, ".", color=f"C{j}", alpha=0.5)
             ax.errorbar([xc], [np.mean(red)], yerr=[[np.mean(red) - lo], [hi - np.mean(red)]], fmt="o",
                         color=f"C{j}", capsize=4, label=NAMES[mpc] if i == 0 else None)
