@@ -25,9 +25,7 @@ import concurrent.futures
 import contextlib
 import json
 import os
-import random
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -42,7 +40,8 @@ from conformance_differences import DIFFERENCES
 from mavlink_gcs import GroundStation
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from sitl.harness.ports import free_port, port_is_free
+from sitl.harness.ardusub import free_instance, home
+from sitl.harness.ports import free_port
 
 __all__ = ["ARDUSUB_DEFAULTS", "ENV", "SPEEDUP", "Pair", "Vehicle", "ardusub_binary", "start_pair"]
 
@@ -54,8 +53,6 @@ ARDUSUB_RATE_HZ = 400
 ARDUSUB_DEFAULTS = "FRAME_CONFIG 2\nBATT_MONITOR 4\n"
 """ArduSub's defaults file: its own compiled defaults, with a BlueROV2 Heavy's frame (vectored 6-DoF)
 and its Power Sense Module (analog voltage and current), as every BlueROV2 Heavy is set up."""
-ORIGIN = (57.9667, -3.6667)
-"""Wavekeep's WK_ORIGIN_LAT/LON: ArduSub starts there, at the sea surface (home altitude 0)."""
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -67,18 +64,6 @@ def ardusub_binary() -> str:
     if not os.access(path, os.X_OK):
         pytest.skip(f"{ENV}={path} is not an executable file")
     return path
-
-
-def _free_instance() -> int:
-    """An ArduSub instance number ``-I N`` whose ports (5760/5762/5763 TCP, 5501 and 9005 UDP, + 10 N) are free.
-
-    N is ArduPilot's uint8: 0–255."""
-    for n in random.sample(range(20, 256), 236):
-        tcp = [5760 + 10 * n, 5762 + 10 * n, 5763 + 10 * n]
-        udp = [5501 + 10 * n, 9005 + 10 * n]
-        if all(port_is_free(p, socket.SOCK_STREAM) for p in tcp) and all(port_is_free(p) for p in udp):
-            return n
-    raise RuntimeError("no free ArduSub instance ports")
 
 
 @dataclass
@@ -200,12 +185,12 @@ def start_ardusub(folder: Path, binary: str, speedup: float = SPEEDUP) -> Vehicl
         _wait_line(plant, "ready on udp", 60.0)
         gcs = free_port()
         gs = _ground_station(gcs, speedup)
-        n = _free_instance()
+        n = free_instance(20, 256)          # -I N: ArduPilot's uint8, its ports free on loopback
         client = {"mavsdk": f"tcpout://127.0.0.1:{5762 + 10 * n}", "dronekit": f"tcp:127.0.0.1:{5763 + 10 * n}"}
         argv = [binary, "--model", "JSON:127.0.0.1", "--sim-port-out", str(plant_port),
                 "--sim-port-in", str(free_port()), "--defaults", str(folder / "defaults.parm"), "-I", str(n),
                 "-w", "--speedup", f"{speedup:g}", "--rate", str(ARDUSUB_RATE_HZ),
-                "--serial0", f"udpclient:127.0.0.1:{gcs}", "--home", f"{ORIGIN[0]},{ORIGIN[1]},0,0"]
+                "--serial0", f"udpclient:127.0.0.1:{gcs}", "--home", home()]   # the firmware's origin, at the surface
         children.insert(0, _spawn("ardusub", argv, folder))
         v = Vehicle("ArduSub", gs, children, speedup, notes=client)
         _first_heartbeat(v, 120.0)

@@ -5,9 +5,7 @@ from __future__ import annotations
 import csv
 import itertools
 import re
-import shutil
 import time
-from pathlib import Path
 
 from ardusub_pair import ROOT, Vehicle
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -18,8 +16,6 @@ MODE_NAMES = {0: "STABILIZE", 1: "ACRO", 2: "ALT_HOLD", 3: "AUTO", 4: "GUIDED", 
 NOISE = re.compile(r"^(EKF3 |AHRS: |GPS \d|Barometer \d|Calibrating barometer|RCInput|Field Elevation)")
 """STATUSTEXTs of ArduSub's estimator, GPS driver and boot chatter: not what a test asked about."""
 REFERENCE = ROOT / "configs" / "firmware" / "ardusub_params.csv"
-
-
 
 
 def texts(msgs, noise: bool = False) -> list[list]:
@@ -92,10 +88,8 @@ def reference_table() -> dict[str, tuple[float, str]]:
     return {r["name"]: (float(r["value"]), r["type"]) for r in rows}
 
 
-
 def bits(prefix: str) -> dict[int, str]:
     return {getattr(M, n): n[len(prefix):] for n in dir(M) if n.startswith(prefix) and not n.endswith("ENUM_END")}
-
 
 
 def lost(msgs) -> int:
@@ -112,24 +106,5 @@ def listen(v: Vehicle, sim_s: float) -> list:
         if lost(msgs) <= len(msgs) // 100:
             break
     return msgs
-
-
-
-def mavsdk_server() -> str | None:
-    try:
-        import mavsdk
-    except ImportError:
-        return None
-    path = Path(mavsdk.__file__).parent / "bin" / "mavsdk_server"
-    return str(path) if path.exists() else shutil.which("mavsdk_server")
-
-
-
-def dronekit_installed() -> bool:
-    try:
-        import dronekit  # noqa: F401
-    except Exception:
-        return False
-    return True
 
 

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import gc
 import os
+import shutil
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -238,5 +240,24 @@ def mavproxy_available() -> bool:
     try:
         import MAVProxy  # noqa: F401
     except ImportError:
+        return False
+    return True
+
+
+def mavsdk_server() -> str | None:
+    """The ``mavsdk_server`` binary MAVSDK-Python (mavsdk<4) ships, or one on PATH; None without MAVSDK."""
+    try:
+        import mavsdk
+    except ImportError:
+        return None
+    path = Path(mavsdk.__file__).parent / "bin" / "mavsdk_server"
+    return str(path) if path.exists() else shutil.which("mavsdk_server")
+
+
+def dronekit_installed() -> bool:
+    """Does dronekit (dronekit2) import here?"""
+    try:
+        import dronekit  # noqa: F401
+    except Exception:
         return False
     return True

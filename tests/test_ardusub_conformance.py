@@ -24,10 +24,8 @@ from conformance_probes import (
     bits,
     command,
     disarm,
-    dronekit_installed,
     heartbeat,
     listen,
-    mavsdk_server,
     read_params,
     reference_table,
     set_mode,
@@ -35,7 +33,7 @@ from conformance_probes import (
     to_manual,
     wait_position,
 )
-from mavlink_gcs import free_port
+from mavlink_gcs import dronekit_installed, free_port, mavsdk_server
 
 pytestmark = pytest.mark.processes
 

@@ -3,44 +3,25 @@ from __future__ import annotations
 
 import asyncio
 import os
-import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
 
 os.environ["MAVLINK20"] = "1"
 # fixtures, one live vehicle per module
-from mavlink_gcs import free_port
+from mavlink_gcs import dronekit_installed, free_port, mavsdk_server
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.modes import MAV_RESULT
 
 
-def _mavsdk_server() -> str | None:
-    try:
-        import mavsdk
-    except ImportError:
-        return None
-    path = Path(mavsdk.__file__).parent / "bin" / "mavsdk_server"
-    return str(path) if path.exists() else shutil.which("mavsdk_server")
-
-
-def _dronekit() -> bool:
-    try:
-        import dronekit  # noqa: F401
-    except Exception:
-        return False
-    return True
-
-
-@pytest.mark.skipif(_mavsdk_server() is None, reason="MAVSDK-Python (mavsdk<4, with mavsdk_server) not installed")
+@pytest.mark.skipif(mavsdk_server() is None, reason="MAVSDK-Python (mavsdk<4, with mavsdk_server) not installed")
 def test_mavsdk_reads_and_sets_the_vehicle(v, tmp_path):
     from mavsdk import System
 
     grpc = free_port(__import__("socket").SOCK_STREAM)
     log = open(tmp_path / "mavsdk_server.log", "w")   # noqa: SIM115
-    server = subprocess.Popen([_mavsdk_server(), "-p", str(grpc), "--sysid", "255",
+    server = subprocess.Popen([mavsdk_server(), "-p", str(grpc), "--sysid", "255",
                                f"udpout://127.0.0.1:{v.in_port}"], stdout=log, stderr=subprocess.STDOUT)
 
     steps: list[str] = []
@@ -93,7 +74,8 @@ def test_mavsdk_reads_and_sets_the_vehicle(v, tmp_path):
     assert len(got["mission"]) == 1 and got["mission"][0].seq == 0     # home alone
 
 
-@pytest.mark.skipif(not _dronekit(), reason="dronekit2 not installed (dronekit 2.9 does not import on Python 3.11)")
+@pytest.mark.skipif(not dronekit_installed(),
+                    reason="dronekit2 not installed (dronekit 2.9 does not import on Python 3.11)")
 def test_dronekit_connects_downloads_home_and_uploads_a_mission(v):
     from dronekit import Command, connect
 
