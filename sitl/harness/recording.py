@@ -117,10 +117,10 @@ def replay_thrust(g: SceneGeometry, pwm: np.ndarray, t: np.ndarray, f0: np.ndarr
     f = np.empty_like(f_cmd)
     prev = np.zeros(f_cmd.shape[1]) if f0 is None else np.asarray(f0, dtype=float)
     dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if t.size > 1 else 0.05))
+    held = motor_lag_factors(g.time_constant_s, np.r_[dt[1:], dt[-1:]])     # row k's PWM held until row k+1
     for k in range(t.size):
         f[k] = prev
-        a = motor_lag_factors(g.time_constant_s, [dt[k + 1] if k + 1 < t.size else dt[k]])[0]
-        prev = f_cmd[k] + a * (prev - f_cmd[k])
+        prev = f_cmd[k] + held[k] * (prev - f_cmd[k])
     return f, saturated, prev
 
 
