@@ -262,13 +262,11 @@ def run_spec(args: argparse.Namespace) -> Any:
 
 def check_configs(args: argparse.Namespace, spec: Any) -> None:
     """Load the sea (with the spec's overrides), mission and vehicle configs a run will fly, so a bad one is
-    refused (a ConfigError: one line, exit 2) before the command prints or writes anything."""
-    from bridge.schemas import load_mission_config, load_vehicle_config
-    from sitl.sea import load_sea_config
+    refused (a ConfigError: one line, exit 2) before the command prints or writes anything; the true vehicle
+    too, when one is given."""
+    from ..provenance import configs_record
 
-    load_sea_config(spec.case, spec.sea)
-    load_mission_config(spec.mission)
-    load_vehicle_config(spec.vehicle)
+    configs_record(spec.case, spec.mission, spec.vehicle, spec.sea, spec.true_vehicle)
 
 
 def _key_values(items: list[str] | None, option: str) -> dict[str, Any]:
