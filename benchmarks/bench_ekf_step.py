@@ -3,7 +3,7 @@
     python -m benchmarks.bench_ekf_step          # writes benchmarks/results/ekf_step.json
     python -m benchmarks.bench_ekf_step --duration 2 --repeat 1 --no-write    # a quick check
 
-The estimator stays filterpy's ``ExtendedKalmanFilter`` (:class:`firmware_py.estimator.PlanarEKF`);
+The estimator stays filterpy's ``ExtendedKalmanFilter`` (:class:`firmware_py.estimation.estimator.PlanarEKF`);
 this measures what a hand-written fixed-size step would reach, on real inputs rather than an estimate:
 
 1. **Recording.** An in-process mission (default: 60 s, W3, C-PD+FF, the paper's estimator
@@ -48,9 +48,9 @@ import scipy.linalg as linalg
 from numba import njit
 
 from benchmarks.common import write
-from firmware_py.estimator import PlanarEKF
-from firmware_py.filterpy_ekf import ExtendedKalmanFilter
-from firmware_py.sensors import SensorFrame
+from firmware_py.estimation.estimator import PlanarEKF
+from firmware_py.estimation.filterpy_ekf import ExtendedKalmanFilter
+from firmware_py.hal.sensors import SensorFrame
 from sitl.harness.run import MissionSetup, build_mission, take_off
 from sitl.harness.spec import RunSpec
 

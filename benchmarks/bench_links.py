@@ -53,8 +53,8 @@ def zenoh_latency(n: int = 200) -> dict:
     from bridge.forecast_codec import encode_forecast
     from bridge.keys import forecast_key
     from bridge.zenoh_net import load_network_config, zenoh_config
-    from firmware_py.forecast import ForecastHandoff
-    from firmware_py.forecast_link import ZenohForecastLink
+    from firmware_py.forecast.handoff import ForecastHandoff
+    from firmware_py.forecast.link import ZenohForecastLink
     from sitl.sea import Sea
 
     net = load_network_config()

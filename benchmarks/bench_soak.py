@@ -40,11 +40,11 @@ def main(sim_seconds: float = 3600.0, case: str = "W3") -> dict:
     from bridge.forecast_codec import ForecastDecodeError, decode_forecast, encode_forecast
     from bridge.schemas import load_mission_config, load_vehicle_config
     from firmware_py.firmware import Firmware
-    from firmware_py.hal_json import JSONSITLHAL
+    from firmware_py.hal.json_sitl import JSONSITLHAL
+    from firmware_py.hal.scheduler import Task
     from firmware_py.mavlink import MavlinkLink
     from firmware_py.modes import Mode
-    from firmware_py.params import load_params
-    from firmware_py.scheduler import Task
+    from firmware_py.params.table import load_params
     from sitl.faultrelay import FaultRelay, Faults
     from sitl.physics_server import PhysicsServer
     from sitl.plant import Plant

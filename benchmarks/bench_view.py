@@ -39,7 +39,7 @@ def _run_600(tmp: Path) -> dict:
 def _live(seconds: float, mode: str, tmp: Path, speedup: float = 5.0) -> dict:
     """LiveSim for ``seconds`` of simulated time: no recording, to a file, or to a file and the live view."""
     from firmware_py.firmware import tick_row
-    from firmware_py.tick_columns import TICK_COLUMNS
+    from firmware_py.logger.tick_columns import TICK_COLUMNS
     from sitl.harness.live import LiveSim
     from sitl.harness.live_view import LiveRecorder, ViewServer
     from sitl.harness.ports import free_port

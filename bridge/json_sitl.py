@@ -1,6 +1,6 @@
 """ArduPilot's JSON SITL wire format: one codec for both ends.
 
-The autopilot (the firmware's :class:`firmware_py.hal_json.JSONSITLHAL`, or real
+The autopilot (the firmware's :class:`firmware_py.hal.json_sitl.JSONSITLHAL`, or real
 ArduSub SITL with ``--model JSON``) sends binary servo packets; the physics
 side (:class:`sitl.physics_server.PhysicsServer`) answers each with one line of
 JSON holding the vehicle's state. ``docs/json_sitl.md`` describes the protocol.

@@ -19,7 +19,7 @@ Time: the loop runs in lockstep with the plant â€” each tick is one plant step â
 as fast as the plant answers (``--speedup 0``), or, with ``--speedup X``, paced at X times real
 time on the wall clock. With no ``--speedup``, a run given ``--mavlink`` explicitly (a person's
 ground station on the other end) runs in real time (``--speedup 1``), and one without runs
-unpaced; the launcher always says which it wants (:class:`~firmware_py.scheduler.LockstepPacedClock`: a
+unpaced; the launcher always says which it wants (:class:`~firmware_py.hal.scheduler.LockstepPacedClock`: a
 slow tick makes the run fall behind, never skips a step).
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ import sys
 import threading
 import time
 
-from .params import parse_assignment
+from .params.table import parse_assignment
 
 __all__ = ["main"]
 
@@ -117,12 +117,12 @@ def main(argv: list[str] | None = None) -> int:
     from bridge.forecast import derive_seeds
     from bridge.schemas import load_mission_config, load_vehicle_config
 
-    from .clocks import LockstepPacedClock
     from .firmware import Firmware
-    from .hal_json import JSONSITLHAL
+    from .hal.clocks import LockstepPacedClock
+    from .hal.json_sitl import JSONSITLHAL
+    from .hal.scheduler import Task
     from .mavlink import MavlinkLink, load_signing_key
-    from .params import load_params
-    from .scheduler import Task
+    from .params.table import load_params
 
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -192,7 +192,7 @@ def _open_forecast_link(args, fw):
     """The vehicle's zenoh session and the forecast subscriber feeding the firmware's hand-off."""
     from bridge.zenoh_net import load_network_config, open_session
 
-    from .forecast_link import ZenohForecastLink
+    from .forecast.link import ZenohForecastLink
     net = load_network_config(args.network)
     session = open_session(net, "vehicle")
     return session, ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)

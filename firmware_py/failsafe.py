@@ -13,9 +13,9 @@ import math
 from collections.abc import Callable
 from enum import IntEnum
 
-from .estimator import PlanarEKF
+from .estimation.estimator import PlanarEKF
 from .modes import MAV_SEVERITY
-from .params import ParameterTable
+from .params.table import ParameterTable
 
 __all__ = ["EKF_BAD_S", "GCS_WARN_PERIOD_S", "EKFFailsafe", "FailsafeAction", "GCSFailsafe"]
 

@@ -22,22 +22,22 @@ import numpy as np
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
 
-from .aux_outputs import AuxOutputs
-from .control import ControlOutput, SolveInfo
-from .controllers import ControlInput, ControllerEnv, build_controller
-from .depth_correction import DepthCorrection
-from .estimator import PlanarEKF
+from .control.cascaded_pd import ControlOutput, SolveInfo
+from .control.depth_correction import DepthCorrection
+from .control.feedforward import FeedForwardOutput, WaveFeedForward, skill_weighted_flow
+from .control.laws import ControlInput, ControllerEnv, build_controller
+from .estimation.estimator import PlanarEKF
 from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
-from .feedforward import FeedForwardOutput, WaveFeedForward, skill_weighted_flow
-from .forecast import ForecastHandoff
-from .hal import HAL
-from .mixer import MixerOutput, MotorMixer
+from .forecast.handoff import ForecastHandoff
+from .hal.base import HAL
+from .hal.scheduler import Scheduler, Task
+from .hal.sensors import SensorFrame
+from .logger.tick_columns import TICK_COLUMNS
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput, mode_refusal
-from .params import ParameterTable
-from .scheduler import Scheduler, Task
-from .sensors import SensorFrame
+from .motors.aux_outputs import AuxOutputs
+from .motors.mixer import MixerOutput, MotorMixer
+from .params.table import ParameterTable
 from .telemetry_snapshot import TelemetrySnapshot
-from .tick_columns import TICK_COLUMNS
 
 __all__ = ["LOAD_MODELS", "TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
 
@@ -223,7 +223,7 @@ class Firmware:
         2 baro: the depth sensor, 16 INS: IMU and estimate, 256 battery: its monitor has read; 64 RC and
         128 board voltage always pass here: the pilot is on MAVLink, the board is simulated).
 
-        ``ekf_converged``: the estimator's :meth:`~firmware_py.estimator.PlanarEKF.converged` when the caller
+        ``ekf_converged``: the estimator's :meth:`~firmware_py.estimation.estimator.PlanarEKF.converged` when the caller
         has just asked it (the telemetry snapshot, every link tick); None asks it here."""
         checks = int(self.params.get("ARMING_CHECK", 448))
         every = checks & 1

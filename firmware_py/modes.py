@@ -29,7 +29,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from .params import ParameterTable
+from .params.table import ParameterTable
 
 __all__ = ["AUTO_AXES", "FLIGHT_MODES", "GUIDED_GROUP", "MAV_RESULT", "MAV_SEVERITY", "MAV_STATE", "MODE_NAMES",
            "REQUIRES_ALTITUDE", "REQUIRES_POSITION", "FlightMode", "Mode", "PilotInput", "mode_refusal"]

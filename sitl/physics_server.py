@@ -1,6 +1,6 @@
 """The simulated world as an ArduPilot JSON SITL physics server (UDP, lockstep).
 
-The autopilot (Wavekeep's :class:`firmware_py.hal_json.JSONSITLHAL`, or real
+The autopilot (Wavekeep's :class:`firmware_py.hal.json_sitl.JSONSITLHAL`, or real
 ArduSub SITL started with ``--model JSON:127.0.0.1``) sends binary servo
 packets; the server answers each with one line of JSON holding the vehicle's
 state. The wire format is ArduPilot's (``libraries/SITL/SIM_JSON.cpp``,

@@ -17,8 +17,8 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_stages
 from bridge.schemas import load_vehicle_config
 from firmware_py.companion.app import companion_overrides
 from firmware_py.companion.commander import Commander
-from firmware_py.mixer import MotorMixer
-from firmware_py.params import load_params
+from firmware_py.motors.mixer import MotorMixer
+from firmware_py.params.table import load_params
 from sitl.harness.companion_launch import stand_in_args
 
 H = 0.05

@@ -22,14 +22,14 @@ import pytest
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import VehicleParams
 from bridge.schemas import load_vehicle_config
-from firmware_py.aux_outputs import AuxOutputs
 from firmware_py.companion import commander as cmd
 from firmware_py.companion.app import _depth_noise
 from firmware_py.companion.autopilot import MANUAL, Sample, VehicleState
 from firmware_py.companion.hal_mavlink import MAVLinkAutopilotHAL
-from firmware_py.estimator import PlanarEKF
-from firmware_py.params import load_params
-from firmware_py.sensors import SensorFrame
+from firmware_py.estimation.estimator import PlanarEKF
+from firmware_py.hal.sensors import SensorFrame
+from firmware_py.motors.aux_outputs import AuxOutputs
+from firmware_py.params.table import load_params
 
 
 @dataclass

@@ -6,9 +6,9 @@ import math
 import numpy as np
 import pytest
 
+from firmware_py.hal.sensors import SensorFrame, SimulatedSensors, specific_force
 from firmware_py.modes import Mode
-from firmware_py.params import load_params
-from firmware_py.sensors import SensorFrame, SimulatedSensors, specific_force
+from firmware_py.params.table import load_params
 from sitl.harness.run import build_mission, run_mission
 from sitl.harness.spec import RunSpec
 
@@ -136,7 +136,7 @@ def test_dob_feeds_back_the_estimated_disturbance():
 def _hovering_ekf(params, ticks: int = 40):
     """A paper-mode EKF that has fused ``ticks`` steady frames at 5 m depth (thrust cancelling buoyancy)."""
     from bridge.models.vehicle import VehicleParams
-    from firmware_py.estimator import PlanarEKF
+    from firmware_py.estimation.estimator import PlanarEKF
 
     ekf = PlanarEKF(VehicleParams.load("bluerov2_heavy"), params, 0.05)
     hover = np.zeros((3, 3))

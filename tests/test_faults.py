@@ -104,8 +104,8 @@ def test_hal_survives_bad_replies_from_the_plant():
     import json
     import threading
 
-    from firmware_py.hal_json import JSONSITLHAL
-    from firmware_py.params import load_params
+    from firmware_py.hal.json_sitl import JSONSITLHAL
+    from firmware_py.params.table import load_params
 
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))

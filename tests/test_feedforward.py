@@ -1,4 +1,4 @@
-"""The wave feed-forward laws (firmware_py/feedforward.py) against analytic truth and an extreme wave group.
+"""The wave feed-forward laws (firmware_py/control/feedforward.py) against analytic truth and an extreme wave group.
 
 Issue #11: the paper's law predicts the load on a vehicle *holding station*;
 when a wave group carries the vehicle with the water it predicts a Munk
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, restoring_forces, strip_nodes
-from firmware_py.feedforward import WaveFeedForward
-from firmware_py.params import load_params
+from firmware_py.control.feedforward import WaveFeedForward
+from firmware_py.params.table import load_params
 from sitl.harness.run import build_mission, run_mission, take_off
 from sitl.harness.spec import RunSpec
 from sitl.sea import Sea

@@ -11,10 +11,10 @@ from bridge.forecast import Forecast, inject_spectral_noise, oracle_forecast
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.waves import elevation
 from bridge.schemas import load_vehicle_config
-from firmware_py.ardusub_params import reference_table
-from firmware_py.forecast import ForecastHandoff
-from firmware_py.mixer import MotorMixer
-from firmware_py.params import PARAM_DEFS, load_params
+from firmware_py.forecast.handoff import ForecastHandoff
+from firmware_py.motors.mixer import MotorMixer
+from firmware_py.params.ardusub import reference_table
+from firmware_py.params.table import PARAM_DEFS, load_params
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.harness.spec import RunSpec
 from sitl.sea import Sea
@@ -124,8 +124,8 @@ def test_ekf_error_is_consistent_with_its_covariance():
 
 def test_ekf_gates_outliers_and_recovers():
     from bridge.models.vehicle import VehicleParams
-    from firmware_py.estimator import PlanarEKF
-    from firmware_py.sensors import SensorFrame
+    from firmware_py.estimation.estimator import PlanarEKF
+    from firmware_py.hal.sensors import SensorFrame
 
     params = load_params()
     ekf = PlanarEKF(VehicleParams.load("bluerov2_heavy"), params, 0.05)
@@ -295,7 +295,7 @@ def test_parameter_set_accepts_exactly_the_allowed_values(name, value):
 def test_a_bad_ardusub_table_names_the_file_and_the_line(tmp_path):
     """configs/firmware/ardusub_params.csv is read and checked: a bad row is a ConfigError naming its line."""
     from bridge.configfile import ConfigError
-    from firmware_py.ardusub_params import reference_table
+    from firmware_py.params.ardusub import reference_table
 
     bad = tmp_path / "ardusub_params.csv"
     bad.write_text("# a comment\nname,value,type\nANGLE_MAX,4500,INT16\nFS_PRESS_MAX,lots,INT32\n")

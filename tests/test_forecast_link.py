@@ -16,8 +16,8 @@ from bridge.forecast import oracle_forecast
 from bridge.forecast_codec import MAX_PAYLOAD, ForecastDecodeError, decode_forecast, encode_forecast
 from bridge.keys import check_site, forecast_key, service_token_key
 from bridge.zenoh_net import load_network_config, zenoh_config
-from firmware_py.forecast import ForecastHandoff
-from firmware_py.forecast_link import ZenohForecastLink
+from firmware_py.forecast.handoff import ForecastHandoff
+from firmware_py.forecast.link import ZenohForecastLink
 from sitl.harness.ports import free_port
 from sitl.sea import Sea
 

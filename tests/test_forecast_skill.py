@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, strip_nodes
-from firmware_py.feedforward import WaveFeedForward, skill_weighted_flow
-from firmware_py.inertial_velocity import InertialVelocity
-from firmware_py.params import load_params
-from firmware_py.sensors import SensorFrame
+from firmware_py.control.feedforward import WaveFeedForward, skill_weighted_flow
+from firmware_py.estimation.inertial_velocity import InertialVelocity
+from firmware_py.hal.sensors import SensorFrame
+from firmware_py.params.table import load_params
 from sitl.harness.results import COLUMN
 from sitl.harness.run import run_mission
 from sitl.harness.spec import RunSpec

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bridge.models.waves import pressure_head
-from firmware_py.sensors import wave_corrected_depth
+from firmware_py.hal.sensors import wave_corrected_depth
 from sitl.harness.results import COLUMN
 from sitl.harness.run import run_mission
 from sitl.harness.spec import RunSpec
@@ -60,7 +60,7 @@ def test_the_forecast_takes_the_dynamic_pressure_out_of_the_depth(raw_and_correc
 def test_the_estimator_starts_from_a_corrected_depth():
     """W1 seed 2 starts under a crest (0.47 m of head): an EKF started from the raw reading and then fed
     corrected ones diverged within 0.3 s (the campaign's ff_bar30 W1 seed 2: 24 m of surge RMSE). Its depth
-    is now reset when the correction starts (firmware_py/depth_correction.py)."""
+    is now reset when the correction starts (firmware_py/control/depth_correction.py)."""
     r = run_mission(RunSpec("W1", "cpd_ff", seed=2, duration=10.0, sea=DYNAMIC, overrides={"WK_BARO_WAVE": 1}))
     log = r.timeseries
     assert np.max(np.abs(log[:, COLUMN["z_hat"]] - log[:, COLUMN["z"]])) < 0.05
@@ -87,7 +87,7 @@ def test_a_nominal_sea_never_sets_the_forecast_aside():
 
 
 def test_the_firmware_says_when_it_sets_the_forecast_aside():
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
     from sitl.harness.run import build_mission, take_off
 
     params = load_params().copy()

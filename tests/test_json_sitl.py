@@ -17,11 +17,11 @@ import pytest
 from bridge.forecast import derive_seeds, oracle_forecast
 from bridge.json_sitl import MAGIC_16, MAGIC_32, decode_state
 from bridge.schemas import load_mission_config, load_vehicle_config
-from firmware_py.clocks import WallClock
 from firmware_py.firmware import Firmware
-from firmware_py.hal_json import JSONSITLHAL
+from firmware_py.hal.clocks import WallClock
+from firmware_py.hal.json_sitl import JSONSITLHAL
 from firmware_py.modes import Mode
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 from sitl.harness.run import TIMESERIES_COLUMNS, run_mission
 from sitl.harness.spec import RunSpec
 from sitl.physics_server import PhysicsServer, PortInUseError

@@ -124,8 +124,8 @@ def test_allocation_matches_python_bit_for_bit(monkeypatch):
     and signed-zero demands included."""
     from bridge.models.thrusters import T200Curve, ThrusterLayout
     from bridge.schemas import load_vehicle_config
-    from firmware_py.mixer import MotorMixer
-    from firmware_py.params import load_params
+    from firmware_py.motors.mixer import MotorMixer
+    from firmware_py.params.table import load_params
 
     cfg = load_vehicle_config("bluerov2_heavy")["thrusters"]
     mixer = MotorMixer(ThrusterLayout.from_config(cfg), T200Curve.from_config(cfg), load_params(), 0.05)
@@ -309,8 +309,8 @@ def test_preview_coasts_as_its_euler_steps_say(path, vehicle, cfg):
     from dataclasses import replace
 
     from bridge.models.waves import WaveComponents
-    from firmware_py.params import load_params
-    from firmware_py.preview import preview_excursions
+    from firmware_py.control.preview import preview_excursions
+    from firmware_py.params.table import load_params
 
     linear = replace(vehicle, X_uu=0.0, Z_ww=0.0)
     params = load_params()
@@ -334,8 +334,8 @@ def test_allocation_is_the_layout_pseudo_inverse_and_saturates_pitch_first(path,
     verticals), so B⁺τ shares each axis equally; beyond ±f_max pitch is served first and the rest gets the room
     left: four horizontals at 35 N give 140 cos 45° N of surge, four verticals 4 · 35 · l_x N m of pitch."""
     from bridge.models.thrusters import T200Curve, ThrusterLayout
-    from firmware_py.mixer import MotorMixer
-    from firmware_py.params import load_params
+    from firmware_py.motors.mixer import MotorMixer
+    from firmware_py.params.table import load_params
 
     th = cfg["thrusters"]
     mixer = MotorMixer(ThrusterLayout.from_config(th), T200Curve.from_config(th), load_params(), 0.05)
@@ -370,7 +370,7 @@ def test_the_horizon_rollout_and_its_jacobians_match_python(monkeypatch, sea, ve
     """The MPC's horizon (bridge/models/horizon.py) on both paths: the rollout to 1e-12, the forward-difference
     Jacobians to 1e-6 of their scale (a difference of 1e-12 over a step of 1e-6)."""
     from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, stage_times
-    from firmware_py.controllers.mpc_qp import prediction_matrix
+    from firmware_py.control.mpc_qp import prediction_matrix
 
     dt = horizon_grid(0.05, 0.1, 12)
     a_mid, _ = lag_profile(dt, 0.1)
@@ -393,7 +393,7 @@ def test_the_horizon_rollout_and_its_jacobians_match_python(monkeypatch, sea, ve
 def test_the_prediction_matrix_is_the_stacked_recursion(path):
     """δx_{k+1} = A δx_k + B δv_k + E δv_{k−1} with fixed A, B, E: block (k, j) of S is A^{k−j} B + A^{k−j−1} E
     (and B on the diagonal), written out by matrix powers."""
-    from firmware_py.controllers.mpc_qp import prediction_matrix
+    from firmware_py.control.mpc_qp import prediction_matrix
 
     rng = np.random.default_rng(2)
     A, B, E = 0.3 * rng.normal(size=(6, 6)), rng.normal(size=(6, 3)), rng.normal(size=(6, 3))

@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.mavlink.battery import BatterySim
 from firmware_py.modes import MAV_RESULT, Mode
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 
 GROUPED = ("RAW_IMU", "SCALED_PRESSURE", "POWER_STATUS", "MEMINFO", "NAV_CONTROLLER_OUTPUT", "AHRS2",
            "BATTERY_STATUS", "EKF_STATUS_REPORT", "VIBRATION")

@@ -21,7 +21,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from firmware_py.mavlink import MavlinkLink, load_signing_key
 from firmware_py.modes import MAV_RESULT, Mode
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 from sitl.harness.live import LiveSim
 from sitl.harness.spec import RunSpec
 

@@ -87,8 +87,8 @@ def test_ardusubs_parameters_are_served_with_ardusubs_types_and_defaults():
     (the ``param.value.NAME`` entries of tests/conformance_differences.py); the 4.7 names, not the old ones."""
     from conformance_differences import DIFFERENCES
 
-    from firmware_py.ardusub_params import reference_table
-    from firmware_py.params import load_params
+    from firmware_py.params.ardusub import reference_table
+    from firmware_py.params.table import load_params
 
     params = load_params()
     wrong = {}

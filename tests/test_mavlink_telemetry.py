@@ -14,11 +14,11 @@ import itertools
 from mavlink_gcs import free_port, rate
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from firmware_py.hal.sensors import depth_to_pressure
 from firmware_py.mavlink import CAPABILITIES, MavlinkLink
 from firmware_py.mavlink.streams import Streams
 from firmware_py.modes import MAV_RESULT, Mode
-from firmware_py.params import load_params
-from firmware_py.sensors import depth_to_pressure
+from firmware_py.params.table import load_params
 
 
 def test_heartbeat_and_default_streams(v):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from firmware_py.modes import MAV_RESULT, MAV_STATE, Mode
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 from sitl.harness.run import build_mission
 from sitl.harness.spec import RunSpec
 from sitl.harness.thrust import csv_profile, pattern_profile

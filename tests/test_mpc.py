@@ -1,4 +1,4 @@
-"""The preview MPC (firmware_py/controllers/mpc.py) flying the simulated vehicle, with the real QP solver.
+"""The preview MPC (firmware_py/control/mpc.py) flying the simulated vehicle, with the real QP solver.
 
 Against the laws it must beat or match (C-PD in still water, the robust FF under a known periodic
 load), against the thrusters' limits it must never exceed, and against the firmware's discipline: a
@@ -17,9 +17,9 @@ from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import VehicleParams
 from bridge.models.waves import WaveComponents
 from bridge.schemas import load_vehicle_config
-from firmware_py.control import SolveStatus
-from firmware_py.controllers.mpc_qp import block_expansion, prediction_matrix
-from firmware_py.wrench_limits import WrenchPolytope
+from firmware_py.control.cascaded_pd import SolveStatus
+from firmware_py.control.mpc_qp import block_expansion, prediction_matrix
+from firmware_py.control.wrench_limits import WrenchPolytope
 from sitl.harness.results import COLUMN
 from sitl.harness.run import build_mission, run_mission, take_off
 from sitl.harness.spec import RunSpec

@@ -1,7 +1,7 @@
 """ParameterTable.derived: a value computed from the table is kept until a parameter changes."""
 from __future__ import annotations
 
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 
 
 def test_derived_values_are_kept_until_a_parameter_changes():

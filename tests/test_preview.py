@@ -1,4 +1,4 @@
-"""The saturation preview (firmware_py/preview.py): compiled and reference paths agree; it acts only
+"""The saturation preview (firmware_py/control/preview.py): compiled and reference paths agree; it acts only
 when the forecast load exceeds the thrusters' authority; it shifts the target ahead of such a group."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import pytest
 
 from bridge.models import kernels
 from bridge.models.vehicle import VehicleParams, strip_nodes
-from firmware_py.params import load_params
-from firmware_py.preview import N_CANDIDATES, SaturationPreview, preview_excursions
+from firmware_py.control.preview import N_CANDIDATES, SaturationPreview, preview_excursions
+from firmware_py.params.table import load_params
 from sitl.harness.results import TIMESERIES_COLUMNS as COLS
 from sitl.harness.run import run_mission
 from sitl.harness.spec import RunSpec

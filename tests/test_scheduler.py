@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from firmware_py.clocks import Clock, SimClock, WallClock
-from firmware_py.scheduler import Scheduler, Task, TaskStats
+from firmware_py.hal.clocks import Clock, SimClock, WallClock
+from firmware_py.hal.scheduler import Scheduler, Task, TaskStats
 
 MS = 1_000_000
 PERIOD = 50 * MS  # 20 Hz

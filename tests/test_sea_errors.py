@@ -231,8 +231,8 @@ def test_pressure_head_is_the_linear_transfer_function():
 
 
 def test_the_depth_sensor_reads_the_dynamic_pressure_when_asked():
-    from firmware_py.hal import InProcessSITLHAL
-    from firmware_py.params import load_params
+    from firmware_py.hal.base import InProcessSITLHAL
+    from firmware_py.params.table import load_params
 
     params = load_params().copy()
     params.set("SIM_DEPTH_RND", 0.0)

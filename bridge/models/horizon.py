@@ -7,7 +7,7 @@ demand v_k as first-order motors do under the held command that reaches v_k at t
 
 with τ_0 = v_{−1} the wrench the motors give now; the command itself is
 c_k = (v_k − e_k v_{k−1}) / (1 − e_k), e_k = e^{−Δ_k/t_m}, what the mixer's lag compensation sends
-(:mod:`firmware_py.mixer`). The body follows paper Eq. 2 with the relative-velocity wave loads
+(:mod:`firmware_py.motors.mixer`). The body follows paper Eq. 2 with the relative-velocity wave loads
 (:func:`~bridge.models.vehicle.state_rates`) in the flow sampled at each step's RK4 stage times, plus a
 constant disturbance wrench d (N, N, N m), integrated by one RK4 step per horizon step.
 

@@ -272,7 +272,7 @@ def horizon_arr(pv, x0, tau0, V, dt, a_mid, d, has_flow, xs, wts, up, wp, ax, az
 
 @njit(cache=True)
 def prediction_matrix_arr(A, B, E):  # pragma: no cover - compiled
-    """:func:`~firmware_py.controllers.mpc_qp.prediction_matrix`: S (6N, 3N) with δX = S δV for
+    """:func:`~firmware_py.control.mpc_qp.prediction_matrix`: S (6N, 3N) with δX = S δV for
     δx_{k+1} = A_k δx_k + B_k δv_k + E_k δv_{k−1}; block row k is x_{k+1}, and only its columns ≤ k fill."""
     n = A.shape[0]
     S = np.zeros((6 * n, 3 * n))
@@ -296,7 +296,7 @@ def prediction_matrix_arr(A, B, E):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt, step):  # pragma: no cover
-    """:func:`~firmware_py.preview.preview_excursions`'s simulation: largest |e| (C, 2) per candidate.
+    """:func:`~firmware_py.control.preview.preview_excursions`'s simulation: largest |e| (C, 2) per candidate.
 
     ``gains`` (6, 2) rows K_p, K_d, K_v, ν_max, τ_max, FF limit (N) for [X, Z]; the flow arrays
     are (N, S), one row per step; ``cands`` (C, 2); ``e0``, ``v0``, ``s0`` (2,).
@@ -325,7 +325,8 @@ def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt,
 
 @njit(cache=True)
 def allocate_arr(pinv, tau, f_max):  # pragma: no cover - compiled
-    """:meth:`~firmware_py.mixer.MotorMixer.allocate`: thrusts (n,) N for τ = [X, Z, M], pitch first, within ±f_max.
+    """:meth:`~firmware_py.motors.mixer.MotorMixer.allocate`: thrusts (n,) N for τ = [X, Z, M], pitch first,
+    within ±f_max.
 
     ``pinv`` (n, 3) is B⁺. Per axis (pitch, heave, surge) g = B⁺[:, axis] τ[axis] and the largest
     s in [0, 1] with |f + s g| ≤ f_max; f += s g. The reference's operations one for one, every

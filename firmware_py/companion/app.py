@@ -168,7 +168,7 @@ def _build(args, link, stop):
     from bridge.schemas import load_mission_config, load_vehicle_config
 
     from ..firmware import Firmware
-    from ..params import load_params
+    from ..params.table import load_params
     from .commander import Commander
     from .hal_mavlink import AutopilotClock, LockstepMarkerClock, MAVLinkAutopilotHAL, TelemetryClock, attitude_stamp
     depth_noise = _depth_noise(args, link)
@@ -214,7 +214,7 @@ def _depth_noise(args, link) -> float | None:
 
 def _run(args, link, stop) -> int:
     from ..firmware import tick_row
-    from ..scheduler import Task
+    from ..hal.scheduler import Task
     from .hal_mavlink import AutopilotClock
     fw, commander, clock, rate = _build(args, link, stop)
     rows: list[list[float]] = []
@@ -258,7 +258,7 @@ def _run(args, link, stop) -> int:
 def _open_forecast(args, fw):
     from bridge.zenoh_net import load_network_config, open_session
 
-    from ..forecast_link import ZenohForecastLink
+    from ..forecast.link import ZenohForecastLink
     net = load_network_config(args.network)
     session = open_session(net, "vehicle")
     return session, ZenohForecastLink(session, args.site or net["site"], fw.forecast, fw.say)

@@ -29,8 +29,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..hal import HAL
-from ..sensors import ATM_PA, G0, RHO_SEAWATER, SensorFrame
+from ..hal.base import HAL
+from ..hal.sensors import ATM_PA, G0, RHO_SEAWATER, SensorFrame
 from .autopilot import AutopilotLink
 from .commander import Commander
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from ..params import ParameterTable
+from ..params.table import ParameterTable
 
 __all__ = ["FUNCTION", "PWM_HI", "PWM_LO", "SUB_INFO", "Accessories"]
 

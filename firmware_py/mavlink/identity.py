@@ -15,7 +15,7 @@ from functools import lru_cache
 
 from bridge.version import git_commit
 
-from ..ardusub_params import ARDUSUB_RELEASE
+from ..params.ardusub import ARDUSUB_RELEASE
 from .wire import mavlink
 
 __all__ = ["CAPABILITIES", "FLIGHT_SW_VERSION", "FRAME_TEXT", "WAVEKEEP_VERSION", "banner", "board_id",

@@ -20,7 +20,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..modes import MAV_SEVERITY
-from ..params import INT_TYPE_RANGES, ParamDef
+from ..params.table import INT_TYPE_RANGES, ParamDef
 from .identity import banner
 from .wire import ID, mavlink, tidy_float32
 
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 __all__ = ["MAV_PARAM_TYPES", "ParamProtocol", "wire_to_value"]
 
 MAV_PARAM_TYPES = {name: getattr(mavlink, f"MAV_PARAM_TYPE_{name}") for name in ("REAL32", "INT8", "INT16", "INT32")}
-"""Parameter storage type (:attr:`firmware_py.params.ParamDef.ptype`) → MAV_PARAM_TYPE."""
+"""Parameter storage type (:attr:`firmware_py.params.table.ParamDef.ptype`) → MAV_PARAM_TYPE."""
 UNLISTED = 65535         # PARAM_VALUE.param_index of an answer to PARAM_SET (ArduPilot sends it so)
 INT_ROUNDING = 0.01      # AP_Param::set_float adds this (towards the value's sign) before truncating
 

@@ -17,8 +17,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
+from ..hal.sensors import depth_to_pressure
 from ..modes import AUTO_AXES, GUIDED_GROUP
-from ..sensors import depth_to_pressure
 from ..telemetry_snapshot import TelemetrySnapshot
 from .identity import CAPABILITIES, FLIGHT_SW_VERSION, board_id, custom_version
 from .wire import ID, INT16_MAX, RC_NEUTRAL, UINT16_MAX, clip_int, mavlink

@@ -81,7 +81,7 @@ def home() -> str:
     """``--home``: the firmware's NED origin (WK_ORIGIN_LAT/LON, the site) at altitude 0, heading north.
     SITL's barometer computes water pressure from the height above sea level: at any other altitude the
     depth ArduSub reads is offset (at its default 584 m, dead)."""
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
 
     p = load_params()
     return f"{p['WK_ORIGIN_LAT']:.7f},{p['WK_ORIGIN_LON']:.7f},0,0"

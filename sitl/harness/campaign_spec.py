@@ -180,7 +180,7 @@ def _overrides(raw: Any, file: str, key: str) -> dict[str, float]:
         return {}
     if not isinstance(raw, Mapping):
         raise ConfigError(file, key, f"got {raw!r:.60}; allowed: a mapping of WK_* parameter names to numbers")
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
 
     table = load_params()
     out: dict[str, float] = {}

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 
 from .campaign_spec import CampaignTask
 from .run import run_mission

@@ -12,10 +12,10 @@ import os
 import threading
 from collections.abc import Callable
 
-from firmware_py.clocks import LockstepPacedClock
+from firmware_py.hal.clocks import LockstepPacedClock
+from firmware_py.hal.scheduler import Task
 from firmware_py.modes import AUTO_AXES, MODE_NAMES
-from firmware_py.params import ParameterTable
-from firmware_py.scheduler import Task
+from firmware_py.params.table import ParameterTable
 
 from .run import MissionSetup, build_mission
 from .spec import RunSpec

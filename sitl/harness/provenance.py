@@ -63,7 +63,7 @@ def configs_record(case: str, mission: str, vehicle: str, sea: Any = None, true_
 
 def _parameters(overrides: Any) -> dict[str, float]:
     """Every firmware parameter, with ``overrides`` applied."""
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
 
     params = load_params()
     for name, value in overrides.items():

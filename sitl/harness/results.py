@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from bridge.models.waves import WaveComponents, elevation
-from firmware_py.tick_columns import TICK_COLUMNS, SolveStatus
+from firmware_py.logger.tick_columns import TICK_COLUMNS, SolveStatus
 from sitl.sea import Sea
 
 from .metrics import station_keeping_metrics

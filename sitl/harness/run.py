@@ -18,11 +18,11 @@ import numpy as np
 from bridge.dswp import predict_from_buoy
 from bridge.forecast import Forecast, derive_seeds, oracle_forecast
 from bridge.schemas import load_mission_config, load_vehicle_config
-from firmware_py.clocks import Clock
 from firmware_py.firmware import Firmware, tick_row
-from firmware_py.hal import InProcessSITLHAL
+from firmware_py.hal.base import InProcessSITLHAL
+from firmware_py.hal.clocks import Clock
 from firmware_py.modes import Mode
-from firmware_py.params import ParameterTable, load_params
+from firmware_py.params.table import ParameterTable, load_params
 from sitl.buoy import BuoyTape
 from sitl.plant import Plant, PlantDiverged
 from sitl.sea import Sea

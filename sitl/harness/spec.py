@@ -197,7 +197,7 @@ ESTIMATORS = {0: "paper", 1: "aided"}
 @functools.lru_cache(maxsize=1)
 def _default_params() -> dict[str, float]:
     """``configs/firmware/params.yaml``'s values (read once)."""
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
 
     return load_params().as_dict()
 

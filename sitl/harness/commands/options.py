@@ -200,7 +200,7 @@ def overrides(args: argparse.Namespace) -> dict[str, float]:
     """Parameter overrides from ``--params FILE`` (NAME: value, only what changes) then ``--set NAME=VALUE``,
     each checked against the parameter table; a bad one is blamed on the option or file it came from."""
     from bridge.configfile import ConfigError, read_yaml
-    from firmware_py.params import load_params
+    from firmware_py.params.table import load_params
 
     table = load_params()
     out: dict[str, float] = {}

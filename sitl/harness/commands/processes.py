@@ -219,7 +219,7 @@ def _ardusub_params(items: list[str] | None, autopilot: str | None) -> dict[str,
     """``--ardusub-set NAME=VALUE`` items as NAME → number (only with ``--autopilot``)."""
     if items and autopilot is None:
         raise o.UsageError("--ardusub-set applies only with --autopilot ardusub:PATH")
-    from firmware_py.params import parse_assignment
+    from firmware_py.params.table import parse_assignment
 
     out: dict[str, float] = {}
     for item in items or []:

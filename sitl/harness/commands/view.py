@@ -86,7 +86,7 @@ class SimView:
 def live_recording(args: argparse.Namespace, sim, spec, log_path: Path, recorder: list, say):
     """``live``: the flight recorded to LOG.rrd (unless --no-record) and, with --view, served live.
     Appends the :class:`~sitl.harness.live_view.LiveRecorder` to ``recorder``; the server or None."""
-    from firmware_py.tick_columns import TICK_COLUMNS
+    from firmware_py.logger.tick_columns import TICK_COLUMNS
 
     from ..live_view import LiveRecorder, ViewServer
     from ..view_layout import SceneGeometry, ViewUnavailable

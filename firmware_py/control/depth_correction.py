@@ -1,7 +1,7 @@
 """The depth reading less the waves' dynamic pressure, with the forecast (``WK_BARO_WAVE``).
 
 A pressure sensor under waves reads p/(ρ g) = s + Σ A K_p cos θ (docs/sea-errors.md §5). With a valid
-forecast the firmware takes the head out (:func:`~firmware_py.sensors.wave_corrected_depth`) at the
+forecast the firmware takes the head out (:func:`~firmware_py.hal.sensors.wave_corrected_depth`) at the
 estimated x. The reading changes meaning when the correction starts or stops (a forecast arrives or is
 lost): then the EKF's depth is reset to the new reading, as ArduPilot's EKF resets its height when its
 source changes, rather than left to see a step of up to the head as motion. The estimator starts from
@@ -13,10 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from .estimator import PlanarEKF
-from .forecast import ForecastHandoff
-from .params import ParameterTable
-from .sensors import SensorFrame, wave_corrected_depth
+from ..estimation.estimator import PlanarEKF
+from ..forecast.handoff import ForecastHandoff
+from ..hal.sensors import SensorFrame, wave_corrected_depth
+from ..params.table import ParameterTable
 
 __all__ = ["DepthCorrection"]
 

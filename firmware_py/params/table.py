@@ -9,7 +9,7 @@ value kept, as ArduPilot's parameter protocol expects.
 
 Simulated-sensor parameters carry ArduPilot's ``SIM_`` prefix: they describe
 the SITL HAL's sensors, not the estimator's beliefs (``WK_EKF_R_*``). ArduSub's
-parameters are :mod:`firmware_py.ardusub_params`'s: the ones that act here in
+parameters are :mod:`firmware_py.params.ardusub`'s: the ones that act here in
 :data:`PARAM_DEFS` (defaults in ``params.yaml``), and the rest of ArduSub 4.7's
 table appended read-only with ArduSub's defaults (:func:`load_params`).
 """
@@ -21,8 +21,8 @@ from typing import Any, TypeVar
 
 from bridge.configfile import ConfigError, load_config, resolve_config
 
-from .ardusub_params import ARDUSUB_DEFS, RCIN_PASSTHROUGH, reference_defs
-from .param_def import INT_TYPE_RANGES, ParamDef
+from .ardusub import ARDUSUB_DEFS, RCIN_PASSTHROUGH, reference_defs
+from .definitions import INT_TYPE_RANGES, ParamDef
 
 __all__ = ["INT_TYPE_RANGES", "PARAM_DEFS", "RCIN_PASSTHROUGH", "ParamDef", "ParameterTable", "load_params",
            "parse_assignment"]
@@ -78,7 +78,7 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_PRV_RATE", 0.01, 2.0, "m/s", "saturation preview: slew rate of the target shift"),
     ParamDef("WK_PRV_MAX_X", 0.0, 2.0, "m", "saturation preview: largest surge target shift"),
     ParamDef("WK_PRV_MAX_Z", 0.0, 2.0, "m", "saturation preview: largest heave target shift"),
-    # The law (firmware_py/controllers) and the preview MPC (docs/mpc.md)
+    # The law (firmware_py/control) and the preview MPC (docs/mpc.md)
     ParamDef("WK_CTRL_LAW", 0, 1, "", "station-keeping law: 0 cascaded PD (with FF, DOB, preview as enabled), "
              "1 preview MPC (falls back to C-PD+FF); read at boot", ptype="INT8"),
     ParamDef("WK_MPC_N", 2, 80, "", "MPC: horizon steps (the control period first, then WK_MPC_DT each)",

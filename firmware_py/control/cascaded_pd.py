@@ -31,9 +31,9 @@ import numpy as np
 
 from bridge.models.vehicle import VehicleParams, ned_to_body, restoring_forces
 
-from .floats import clip_float
-from .params import ParameterTable
-from .tick_columns import SolveStatus
+from ..logger.tick_columns import SolveStatus
+from ..numerics.floats import clip_float
+from ..params.table import ParameterTable
 
 __all__ = ["ControlOutput", "SolveInfo", "SolveStatus", "StationKeepingController"]
 

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from bridge.configfile import ConfigError, configs_dir
 
-from .param_def import INT_TYPE_RANGES, PARAM_TYPES, ParamDef
+from .definitions import INT_TYPE_RANGES, PARAM_TYPES, ParamDef
 
 __all__ = ["ARDUSUB_DEFS", "ARDUSUB_RELEASE", "RCIN_PASSTHROUGH", "REFERENCE_FILE", "reference_defs",
            "reference_table"]

@@ -40,8 +40,8 @@ import numpy as np
 from bridge.models import kernels
 from bridge.models.vehicle import VehicleParams, WaveComponents, body_flow, hydrodynamic_load_at, ned_to_body
 
-from .floats import clip_float
-from .params import ParameterTable
+from ..numerics.floats import clip_float
+from ..params.table import ParameterTable
 
 __all__ = ["SaturationPreview", "preview_excursions", "preview_gains"]
 
@@ -99,7 +99,7 @@ def preview_excursions(vehicle: VehicleParams, params: ParameterTable, component
 
 def _preview_tables(p: ParameterTable) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The candidate shifts (C, 2) m, their tie-break penalty 1e-3 |s| and :func:`preview_gains`
-    (read through :meth:`ParameterTable.derived <firmware_py.params.ParameterTable.derived>`)."""
+    (read through :meth:`ParameterTable.derived <firmware_py.params.table.ParameterTable.derived>`)."""
     s_max = np.array([p["WK_PRV_MAX_X"], p["WK_PRV_MAX_Z"]])
     cands = np.linspace(-1.0, 1.0, N_CANDIDATES)[:, None] * s_max
     return cands, 1e-3 * np.abs(cands), preview_gains(p)

@@ -39,11 +39,11 @@ import scipy.linalg as linalg  # filterpy's EKF inverts S with it; so does _fuse
 
 from bridge.models.vehicle import BodyFlow, VehicleParams, rates_jacobian, rk4_step, state_rates_at
 
-from .estimator_support import Subset, Tuning, innovation_scales, selection_rows
+from ..hal.sensors import SensorFrame
+from ..numerics.floats import ratio, sqrt
+from ..params.table import ParameterTable
 from .filterpy_ekf import ExtendedKalmanFilter
-from .floats import ratio, sqrt
-from .params import ParameterTable
-from .sensors import SensorFrame
+from .support import Subset, Tuning, innovation_scales, selection_rows
 
 __all__ = ["CHANNELS", "MEASURED_STATES", "PlanarEKF"]
 
@@ -242,7 +242,7 @@ class PlanarEKF:
 
     def _adapt_to_innovations(self, y: list[float], S: list[float], avail: list[bool]) -> None:
         """The innovation-driven scales λ on the process noise (``WK_EKF_QI_*``,
-        :func:`~firmware_py.estimator_support.innovation_scales`) after this tick's innovations."""
+        :func:`~firmware_py.estimation.support.innovation_scales`) after this tick's innovations."""
         self._lam = innovation_scales(self._lam, self._blk, y, S, avail, self._tuning(), self.h, _QI_CHANNELS)
 
     def predict(self, tau_stages: np.ndarray, flow: BodyFlow | None = None) -> None:

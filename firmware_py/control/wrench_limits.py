@@ -8,7 +8,7 @@ pair of generators, so its facet normals are the cross products of the pairs and
     |nᵀ (τ − c)| ≤ Σ_i |nᵀ g_i|   for each normal n
 
 is its exact H-representation (McMullen, "On zonotopes", 1971). The mixer allocates with the
-pseudo-inverse (pitch first, :mod:`firmware_py.mixer`), which for a general layout need not reach
+pseudo-inverse (pitch first, :mod:`firmware_py.motors.mixer`), which for a general layout need not reach
 every wrench of the zonotope; :meth:`WrenchPolytope.from_allocation` checks the zonotope's vertices
 through B⁺ and shrinks the bounds until every wrench inside maps to thrusts within their limits. For
 the BlueROV2 Heavy it needs no shrinking: the horizontal thrusters give surge alone and the vertical

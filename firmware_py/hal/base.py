@@ -1,8 +1,8 @@
 """The hardware abstraction layer: what the firmware needs from the vehicle.
 
-``read_sensors()`` → :class:`~firmware_py.sensors.SensorFrame`,
+``read_sensors()`` → :class:`~firmware_py.hal.sensors.SensorFrame`,
 ``write_pwm(pwm)`` with eight thruster pulse widths (µs, ArduSub motor order),
-and ``clock`` (a :class:`~firmware_py.scheduler.Clock`).
+and ``clock`` (a :class:`~firmware_py.hal.scheduler.Clock`).
 
 :class:`InProcessSITLHAL` calls straight into a simulated plant in the same
 process for fast batch runs; it is duck-typed (any object with ``state.t``,
@@ -19,8 +19,8 @@ import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US
 
+from ..params.table import ParameterTable
 from .clocks import Clock, SimClock
-from .params import ParameterTable
 from .sensors import SensorFrame, SimulatedSensors, specific_force
 
 __all__ = ["HAL", "PWM_CHANNELS", "InProcessSITLHAL", "PlantLike"]

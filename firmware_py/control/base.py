@@ -2,8 +2,8 @@
 
 C-PD (with its feed-forward and disturbance-observer terms) and the preview MPC are strategies behind
 this one small interface (:class:`Controller`): the task builds a :class:`ControlInput` each tick and
-flies the :class:`~firmware_py.control.ControlOutput` it gets back, whichever law made it. A new law is
-a new module beside the others (registered in :mod:`firmware_py.controllers`), not a branch in the tick.
+flies the :class:`~firmware_py.control.cascaded_pd.ControlOutput` it gets back, whichever law made it. A new law is
+a new module beside the others (registered in :mod:`firmware_py.control.laws`), not a branch in the tick.
 """
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from typing import Protocol
 
 import numpy as np
 
-from ..control import ControlOutput
-from ..feedforward import FeedForwardOutput
-from ..forecast import ActiveForecast
+from ..forecast.handoff import ActiveForecast
+from .cascaded_pd import ControlOutput
+from .feedforward import FeedForwardOutput
 
 __all__ = ["ControlInput", "Controller"]
 

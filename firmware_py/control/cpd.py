@@ -1,9 +1,9 @@
 """C-PD with its terms: the cascaded PD, the wave feed-forward, the disturbance observer, the preview.
 
-The paper's law (:class:`~firmware_py.control.StationKeepingController`) with the feed-forward wrench
-of :mod:`firmware_py.feedforward` (``WK_FF_ENABLE``), the estimated disturbance fed back
+The paper's law (:class:`~firmware_py.control.cascaded_pd.StationKeepingController`) with the feed-forward wrench
+of :mod:`firmware_py.control.feedforward` (``WK_FF_ENABLE``), the estimated disturbance fed back
 (``WK_DOB_ENABLE``) and, with the robust feed-forward (``WK_FF_MODE`` 1), the saturation preview
-(:mod:`firmware_py.preview`) moving the target ahead of a forecast wave group the thrusters cannot hold.
+(:mod:`firmware_py.control.preview`) moving the target ahead of a forecast wave group the thrusters cannot hold.
 C-PD, C-PD+FF and C-PD+DOB are this one strategy with those terms on or off.
 """
 from __future__ import annotations
@@ -14,10 +14,10 @@ import numpy as np
 
 from bridge.models.vehicle import VehicleParams
 
-from ..control import ControlOutput, StationKeepingController
-from ..params import ParameterTable
-from ..preview import SaturationPreview
+from ..params.table import ParameterTable
 from .base import ControlInput
+from .cascaded_pd import ControlOutput, StationKeepingController
+from .preview import SaturationPreview
 
 __all__ = ["CascadedPD"]
 

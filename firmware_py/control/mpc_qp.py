@@ -10,7 +10,7 @@ triangular. In normalised inputs u = v / τ_max (per axis) and z = δU, the cost
 
 (each term ½ ×) is ½ zᵀ P z + qᵀ z + const with P = S̃ᵀ W S̃ + R̄ + Dᵀ R̄_Δ D, S̃ = S diag(τ_max), W the
 state weights, D the first difference. The constraints are the thrusters' limits on each step's
-command, c_k = (v_k − e_k v_{k−1}) / (1 − e_k) in the :class:`~firmware_py.wrench_limits.WrenchPolytope`
+command, c_k = (v_k − e_k v_{k−1}) / (1 − e_k) in the :class:`~firmware_py.control.wrench_limits.WrenchPolytope`
 (the wrench the mixer sends to make the motors reach v_k; v_k, a convex combination of commands and the
 thrust now, then lies within them too). Their matrix is the same every tick; only P, q and the bounds
 change. One QP a tick: a real-time iteration of sequential quadratic programming (Diehl et al., 2005).
@@ -30,8 +30,8 @@ import numpy as np
 
 from bridge.models import kernels
 
-from ..control import SolveStatus
-from ..wrench_limits import WrenchPolytope
+from .cascaded_pd import SolveStatus
+from .wrench_limits import WrenchPolytope
 
 __all__ = ["CondensedQP", "HorizonCost", "QPResult", "block_expansion", "prediction_matrix"]
 

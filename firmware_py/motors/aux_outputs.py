@@ -19,8 +19,8 @@ import numpy as np
 
 from bridge.models.thrusters import NEUTRAL_PWM_US
 
-from .modes import MAV_RESULT
-from .params import RCIN_PASSTHROUGH, ParameterTable
+from ..modes import MAV_RESULT
+from ..params.table import RCIN_PASSTHROUGH, ParameterTable
 
 __all__ = ["AuxOutputs", "MotorTest"]
 

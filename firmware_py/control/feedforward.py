@@ -46,10 +46,10 @@ from bridge.models.vehicle import (
     restoring_terms,
 )
 
-from .floats import clip_float, ratio, sqrt
-from .inertial_velocity import InertialVelocity
-from .params import ParameterTable
-from .sensors import SensorFrame
+from ..estimation.inertial_velocity import InertialVelocity
+from ..hal.sensors import SensorFrame
+from ..numerics.floats import clip_float, ratio, sqrt
+from ..params.table import ParameterTable
 
 __all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward", "skill_weighted_flow"]
 
@@ -223,9 +223,10 @@ class WaveFeedForward:
         """The observed and the predicted load for the skill, in the terms of :meth:`_load` (mode 1).
 
         As :meth:`_observed_load` and the monitor's prediction, but at a velocity the forecast has not
-        touched: ν = [u, w] = ``uw`` of :class:`~firmware_py.inertial_velocity.InertialVelocity` (IMU and fixes) and
-        the gyro's q, with ν̇ from the accelerometer, u̇ = f_x − q w − g sin θ, ẇ = f_z + q u + g cos θ
-        (:func:`~firmware_py.sensors.specific_force` inverted), and q̇ from consecutive gyro rates. The
+        touched: ν = [u, w] = ``uw`` of :class:`~firmware_py.estimation.inertial_velocity.InertialVelocity`
+        (IMU and fixes) and the gyro's q, with ν̇ from the accelerometer, u̇ = f_x − q w − g sin θ,
+        ẇ = f_z + q u + g cos θ (:func:`~firmware_py.hal.sensors.specific_force` inverted), and q̇ from
+        consecutive gyro rates. The
         estimator predicts with the forecast, so its ν̂ follows a wrong forecast as well as a right one, and
         loads computed from it agree with any forecast. None without an IMU this tick.
         """

@@ -38,7 +38,7 @@ Timing model
   ``time.perf_counter_ns`` (real CPU-side duration), so start jitter is 0 under
   a plain :class:`SimClock` while compute times stay meaningful.
 
-The clocks are in :mod:`firmware_py.clocks`. Real-time notes (measured, see
+The clocks are in :mod:`firmware_py.hal.clocks`. Real-time notes (measured, see
 ``docs/platform-notes.md``): ``gc.collect(); gc.freeze()`` after start-up keeps
 a full collection (≈ 56 ms with the stack loaded) out of the loop; SCHED_FIFO,
 where permitted, is the caller's business.

@@ -33,7 +33,7 @@ import numpy as np
 from bridge.models import kernels
 from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors
 
-from .params import ParameterTable
+from ..params.table import ParameterTable
 
 __all__ = ["MixerOutput", "MotorMixer"]
 

@@ -18,7 +18,7 @@ import numpy as np
 from bridge.models.thrusters import ThrusterLayout
 from bridge.models.vehicle import VehicleParams
 
-from ..params import ParameterTable
+from ..params.table import ParameterTable
 from .base import ControlInput, Controller
 from .cpd import CascadedPD
 from .mpc import PreviewMPC

@@ -22,8 +22,8 @@ from collections.abc import Callable
 from bridge.forecast_codec import ForecastDecodeError, decode_forecast
 from bridge.keys import forecast_key, forecast_latest_key, service_token_key
 
-from .forecast import ForecastHandoff
-from .modes import MAV_SEVERITY
+from ..modes import MAV_SEVERITY
+from .handoff import ForecastHandoff
 
 __all__ = ["ZenohForecastLink"]
 

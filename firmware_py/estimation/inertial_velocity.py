@@ -6,12 +6,12 @@ velocity and an accelerometer bias, driven by the measured acceleration and pull
 to each fix through gains 3ω, 3ω², ω³ (three poles at ω = 1/``WK_FF_SKILL_VTC``).
 
 The accelerometer's specific force f = [f_x, f_z] (body FRD) and the AHRS pitch θ
-give the NED acceleration (:func:`~firmware_py.sensors.specific_force` inverted):
+give the NED acceleration (:func:`~firmware_py.hal.sensors.specific_force` inverted):
 
     ẍ = cos θ f_x + sin θ f_z,    z̈ = −sin θ f_x + cos θ f_z + g.
 
 The fixes are the horizontal position x and the depth, whenever a frame carries
-them. The feed-forward's skill (:mod:`firmware_py.feedforward`) needs a velocity the
+them. The feed-forward's skill (:mod:`firmware_py.control.feedforward`) needs a velocity the
 forecast has not touched: the estimator predicts with the forecast, so its velocity
 follows a wrong forecast as well as a right one.
 """
@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from .sensors import SensorFrame
+from ..hal.sensors import SensorFrame
 
 __all__ = ["InertialVelocity"]
 

@@ -5,7 +5,7 @@ Each tick (docs/mpc.md has the equations and the measurements behind the choices
 1. **The horizon.** N steps: the control period h first (the command being sent), then ``WK_MPC_DT``
    each. The forecast's flow at the body's strips is taken at every step's RK4 stage times, at the pose
    the command meets (:func:`~bridge.models.vehicle.body_flow`), weighted per axis by the feed-forward's
-   monitor and skill (:func:`~firmware_py.feedforward.skill_weighted_flow`) and zero past the
+   monitor and skill (:func:`~firmware_py.control.feedforward.skill_weighted_flow`) and zero past the
    forecast's validity; with no forecast, or one set aside, the horizon sees still water.
 2. **The nominal plan** is the last plan shifted by a tick (interpolated onto the new step times), or
    the fallback's command held when there is none. It is rolled out through the firmware's own model
@@ -14,7 +14,7 @@ Each tick (docs/mpc.md has the equations and the measurements behind the choices
    (:func:`~bridge.models.horizon.linearise_horizon`): a linear time-varying model.
 3. **The QP** (:mod:`.mpc_qp`): the state error, the effort off trim and its change, subject to the
    thrusters' limits on every step's command (the allocation's wrench polytope at ``WK_THR_MAX``,
-   :mod:`firmware_py.wrench_limits`), solved by OSQP warm-started on the last duals. Pitch keeps its
+   :mod:`firmware_py.control.wrench_limits`), solved by OSQP warm-started on the last duals. Pitch keeps its
    priority through its weight: the optimiser gives up heave before pitch when they compete for the
    vertical thrusters, and the first demand lies inside the limits, so the mixer never has to choose.
 4. **The firmware's discipline.** The robust feed-forward's command (:class:`~.cpd.CascadedPD`) is
@@ -35,14 +35,14 @@ from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, 
 from bridge.models.thrusters import ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, restoring_terms
 
-from ..control import ControlOutput, SolveInfo, SolveStatus
-from ..feedforward import skill_weighted_flow
 from ..modes import MAV_SEVERITY
-from ..params import ParameterTable
-from ..wrench_limits import WrenchPolytope
+from ..params.table import ParameterTable
 from .base import ControlInput
+from .cascaded_pd import ControlOutput, SolveInfo, SolveStatus
 from .cpd import CascadedPD
+from .feedforward import skill_weighted_flow
 from .mpc_qp import CondensedQP, HorizonCost, prediction_matrix
+from .wrench_limits import WrenchPolytope
 
 __all__ = ["MPCSettings", "PreviewMPC", "mpc_settings"]
 

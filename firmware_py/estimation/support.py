@@ -1,9 +1,9 @@
-"""The estimator's per-tick helpers (:mod:`firmware_py.estimator`): its parameters read once per table
+"""The estimator's per-tick helpers (:mod:`firmware_py.estimation.estimator`): its parameters read once per table
 version, the fusion's constants per set of accepted channels, and the innovation-driven noise scales.
 
 The filter runs 20 times a second on vectors of 4–9 elements, where a numpy call costs more than the
 arithmetic it does; the gating and the noise adaptation therefore run on Python floats, with
-:mod:`firmware_py.floats` where Python's edge cases differ from numpy's.
+:mod:`firmware_py.numerics.floats` where Python's edge cases differ from numpy's.
 """
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .floats import square_over
-from .params import ParameterTable
+from ..numerics.floats import square_over
+from ..params.table import ParameterTable
 
 __all__ = ["Subset", "Tuning", "innovation_scales", "selection_rows"]
 
@@ -25,7 +25,7 @@ _Q_NAMES_AIDED = ("WK_EKF_Q_POS_A", "WK_EKF_Q_POS_A", "WK_EKF_Q_ANG_A", "WK_EKF_
 
 @dataclass(frozen=True, slots=True)
 class Tuning:
-    """The parameters :meth:`PlanarEKF.update <firmware_py.estimator.PlanarEKF.update>` reads every tick,
+    """The parameters :meth:`PlanarEKF.update <firmware_py.estimation.estimator.PlanarEKF.update>` reads every tick,
     read once per parameter-table version (dictionary look-ups cost more than the arithmetic they feed)."""
 
     r: tuple[float, ...]      # R's diagonal, per channel (m², rad², (rad/s)², (m/s)², (m/s²)²)

@@ -4,8 +4,8 @@ The autopilot side of ``docs/json_sitl.md``. :meth:`JSONSITLHAL.write_pwm`
 sends the eight thruster PWMs as an ArduPilot servo packet and waits for the
 physics server's JSON state reply (lockstep, as ArduPilot's SITL does);
 :meth:`JSONSITLHAL.read_sensors` turns the newest state into a
-:class:`~firmware_py.sensors.SensorFrame` through the same
-:class:`~firmware_py.sensors.SimulatedSensors` (same seed, same noise
+:class:`~firmware_py.hal.sensors.SensorFrame` through the same
+:class:`~firmware_py.hal.sensors.SimulatedSensors` (same seed, same noise
 sequence) as the in-process HAL. This module never imports the simulator.
 
 Packet sequence (frame_count n, period h)::
@@ -35,9 +35,9 @@ import numpy as np
 from bridge.json_sitl import decode_state, servo_packet
 from bridge.models.thrusters import NEUTRAL_PWM_US
 
+from ..params.table import ParameterTable
+from .base import HAL, PWM_CHANNELS
 from .clocks import Clock, LockstepPacedClock, SimClock
-from .hal import HAL, PWM_CHANNELS
-from .params import ParameterTable
 from .sensors import SensorFrame, SimulatedSensors
 
 __all__ = ["DEFAULT_TIMEOUT_S", "JSONSITLHAL", "HALCounters", "JSONState"]
@@ -94,7 +94,7 @@ class JSONSITLHAL(HAL):
         time equal to the plant's (see ``speedup``).
     speedup : float, optional
         Pace on the wall clock, ``speedup`` times real time, with a
-        :class:`~firmware_py.scheduler.LockstepPacedClock` (ignored if ``clock`` is given):
+        :class:`~firmware_py.hal.scheduler.LockstepPacedClock` (ignored if ``clock`` is given):
         lockstep time, moved by the replies, its slots waited for on the wall clock.
     timeout_s : float, optional
         Wall seconds to wait for a reply before the plant counts as silent

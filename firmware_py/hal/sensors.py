@@ -32,7 +32,7 @@ import numpy as np
 
 from bridge.models.waves import WaveComponents, pressure_head
 
-from .params import ParameterTable
+from ..params.table import ParameterTable
 
 __all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure", "specific_force",
            "wave_corrected_depth"]
