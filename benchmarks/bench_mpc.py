@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from benchmarks.common import write
-from firmware_py.control.laws import mpc_qp
+from firmware_py.control import mpc_qp
 from sitl.harness.results import COLUMN
 from sitl.harness.run import run_mission
 from sitl.harness.spec import RunSpec
