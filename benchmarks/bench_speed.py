@@ -66,10 +66,10 @@ def _proc(tree: Path, argv: list[str], timeout: float = 900.0) -> tuple[float, s
     return wall, p.stdout
 
 
-def measure(tree: Path, kind: str, tmp: Path) -> dict:
-    """One measurement of ``kind`` (see the module docstring) in ``tree``."""
+def measure(tree: Path, kind: str, tmp: Path, extra: list[str] | None = None) -> dict:
+    """One measurement of ``kind`` (see the module docstring) in ``tree``; ``extra``: more mission options."""
     cli = ["-m", "sitl.harness.cli"]
-    mission = ["--case", "W3", "--controller", "cpd_ff"]
+    mission = ["--case", "W3", "--controller", "cpd_ff", *(extra or [])]
     if kind == "import":
         return {"s": _proc(tree, ["-c", "import sitl.harness.cli"])[0]}
     if kind == "help":

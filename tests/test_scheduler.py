@@ -181,6 +181,15 @@ def test_raising_task_is_counted_and_others_keep_running():
     with pytest.raises(KeyboardInterrupt):  # only Exception is contained
         Scheduler(clock, 20, [Task("i", 20, interrupt)]).run_tick()
 
+    def interrupted_in_compiled_code(t: int) -> None:
+        # what CPython raises when Ctrl-C lands inside a compiled call (numba's dispatcher): a SystemError
+        # "returned a result with an exception set", caused by the KeyboardInterrupt
+        raise SystemError("CPUDispatcher(...) returned a result with an exception set") from KeyboardInterrupt()
+    s = Scheduler(clock, 20, [Task("i", 20, interrupted_in_compiled_code)])
+    with pytest.raises(KeyboardInterrupt):   # a Ctrl-C, not a task's fault
+        s.run_tick()
+    assert s.stats()["tasks"]["i"]["errors"] == 0
+
 
 def test_stats_json_and_keys():
     clock = SimClock()

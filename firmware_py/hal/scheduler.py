@@ -28,7 +28,8 @@ Timing model
 * **Faults.** A task raising an ``Exception`` does not stop the scheduler (the
   vehicle must keep flying): the error is counted per task and its ``repr`` kept,
   and the remaining tasks run. ``BaseException`` (``KeyboardInterrupt``,
-  ``SystemExit``) still propagates.
+  ``SystemExit``) still propagates, and so does a Ctrl-C wrapped in an
+  ``Exception`` (a compiled call interrupted mid-way raises a SystemError from it).
 * **Measurements.** Per task, over a ring buffer of the last ``window`` runs:
   compute time (end − start of the call) and start jitter (actual start −
   scheduled slot time), both reported in µs as p50 / p99 / max / mean. Start
@@ -53,6 +54,16 @@ from dataclasses import dataclass, field
 from .clocks import Clock, RingBuffer
 
 __all__ = ["Scheduler", "Task", "TaskStats"]
+
+
+def _reraise_interrupt(exc: BaseException) -> None:
+    """Raise the Ctrl-C an ``Exception`` carries: a KeyboardInterrupt that arrives inside a compiled call (numba)
+    comes back as a SystemError caused by it, and must stop the run as a Ctrl-C, not count as a task's fault."""
+    seen: BaseException | None = exc
+    while seen is not None:
+        if isinstance(seen, KeyboardInterrupt):
+            raise seen
+        seen = seen.__cause__ or seen.__context__
 
 
 @dataclass
@@ -297,6 +308,7 @@ class Scheduler:
             try:
                 fn(t_slot)
             except Exception as exc:  # keep flying: count it and run the other tasks
+                _reraise_interrupt(exc)
                 st.errors += 1
                 st.last_error = repr(exc)
             end = clock.now_ns()
