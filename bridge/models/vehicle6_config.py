@@ -1,0 +1,79 @@
+"""Schema and loader of the six-DoF vehicle config (``configs/vehicle/bluerov2_heavy_6dof.yaml``).
+
+Ranges are physical plausibility bounds, as :mod:`bridge.schemas`' for the planar vehicle; an error
+names the file, the dotted key and the allowed range (:class:`bridge.configfile.ConfigError`).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bridge.configfile import ConfigError, Field, load_config, resolve_config
+
+from .rigid_body6 import rigid_body_mass
+from .waves import G
+
+__all__ = ["VEHICLE6_SCHEMA", "load_vehicle6_config"]
+
+
+def _positive(hi: float, doc: str) -> Field:
+    return Field("float", lo=0.0, lo_open=True, hi=hi, doc=doc)
+
+
+def _coefficients(names: tuple[str, ...], hi: tuple[float, ...], unit: tuple[str, ...]) -> dict:
+    return {n: Field("float", lo=0.0, hi=h, doc=u) for n, h, u in zip(names, hi, unit, strict=True)}
+
+
+_LIN, _ROT = ("kg", "kg", "kg"), ("kg m^2", "kg m^2", "kg m^2")
+
+VEHICLE6_SCHEMA = {
+    "name": Field("str"),
+    "mass_properties": {
+        "W": _positive(1e5, "weight (N)"),
+        "B": _positive(1e5, "buoyancy (N)"),
+        "I_x": _positive(1e3, "roll inertia about the CG (kg m^2)"),
+        "I_y": _positive(1e3, "pitch inertia about the CG (kg m^2)"),
+        "I_z": _positive(1e3, "yaw inertia about the CG (kg m^2)"),
+        "r_G": Field("floats", lo=-1.0, hi=1.0, length=3, doc="centre of gravity, body FRD (m)"),
+        "r_B": Field("floats", lo=-1.0, hi=1.0, length=3, doc="centre of buoyancy, body FRD (m)"),
+        "length": _positive(10.0, "body length (m)"),
+        "beam": _positive(10.0, "body beam (m)"),
+        "height": _positive(10.0, "body height (m)"),
+        "displaced_volume": Field("float", lo=0.0, lo_open=True, hi=100.0, required=False,
+                                  doc="m^3; absent: B / (rho g), the volume the buoyancy implies"),
+        "water_density": Field("float", lo=990.0, hi=1050.0, default=1025.0, doc="kg/m^3"),
+    },
+    "added_mass": {
+        **_coefficients(("X_udot", "Y_vdot", "Z_wdot"), (1e3, 1e3, 1e3), _LIN),
+        **_coefficients(("K_pdot", "M_qdot", "N_rdot"), (1e2, 1e2, 1e2), _ROT),
+        "X_qdot": Field("float", lo=-1e2, hi=1e2, default=0.0, doc="surge-pitch coupling X_qdot = M_udot (kg m)"),
+    },
+    "damping": {
+        **_coefficients(("X_u", "Y_v", "Z_w"), (1e4, 1e4, 1e4), ("kg/s",) * 3),
+        **_coefficients(("K_p", "M_q", "N_r"), (1e3, 1e3, 1e3), ("kg m^2/s",) * 3),
+        **_coefficients(("X_uu", "Y_vv", "Z_ww"), (1e4, 1e4, 1e4), ("N s^2/m^2",) * 3),
+        **_coefficients(("K_pp", "M_qq", "N_rr"), (1e3, 1e3, 1e3), ("N m s^2",) * 3),
+    },
+}
+
+
+def load_vehicle6_config(name_or_path: str | Path = "bluerov2_heavy_6dof") -> dict:
+    """Load and validate a six-DoF vehicle config by name (``configs/vehicle/NAME.yaml``) or path.
+
+    Beyond the ranges: the mass matrix M = M_RB + M_A must be positive definite (a large X_q̇ against
+    the surge and pitch inertias is not), reported against ``added_mass.X_qdot``.
+    """
+    path = resolve_config(name_or_path, "vehicle")
+    cfg = load_config(path, VEHICLE6_SCHEMA)
+    mp, am = cfg["mass_properties"], cfg["added_mass"]
+    m = mp["W"] / G
+    M = rigid_body_mass(m, np.diag([mp["I_x"], mp["I_y"], mp["I_z"]]), mp["r_G"])
+    M += np.diag([am[k] for k in ("X_udot", "Y_vdot", "Z_wdot", "K_pdot", "M_qdot", "N_rdot")])
+    M[0, 4] += am["X_qdot"]
+    M[4, 0] += am["X_qdot"]
+    if np.linalg.eigvalsh(M).min() <= 0.0:
+        limit = float(np.sqrt((M[0, 0]) * (M[4, 4])))
+        raise ConfigError(path, "added_mass.X_qdot", f"got {am['X_qdot']!r}: the mass matrix is not positive "
+                                                     f"definite; allowed: |X_qdot + m z_G| < {limit:.3g} kg m")
+    return cfg
