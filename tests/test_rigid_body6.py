@@ -26,9 +26,10 @@ from bridge.models.rigid_body6 import (
     rotation_matrix,
 )
 from bridge.models.strip_load6 import body_flow6, hydrodynamic_load6, strip_grid
+from bridge.models.vehicle6_config import load_rigid_body6
 from bridge.models.waves import WaveComponents
 
-DEFAULT = RigidBody6Params.load()
+DEFAULT = load_rigid_body6()
 ZERO6 = np.zeros(6)
 
 
@@ -299,8 +300,8 @@ def test_config_errors_name_the_file_the_key_and_the_range(tmp_path):
         load_vehicle6_config(bad)
     assert str(bad) in str(e.value) and "mass_properties.I_x" in str(e.value) and "(0, 1000]" in str(e.value)
     bad.write_text(src.read_text().replace("X_qdot: 0.67", "X_qdot: 20.0"))
-    with pytest.raises(ConfigError, match="added_mass.X_qdot.*positive definite"):
+    with pytest.raises(ConfigError, match=r"added_mass\.X_qdot.*positive definite"):
         load_vehicle6_config(bad)
     bad.write_text(src.read_text().replace("N_rr: 1.5", "N_rr: 1.5\n  N_rrr: 1.0"))
-    with pytest.raises(ConfigError, match="damping.N_rrr.*unknown key"):
+    with pytest.raises(ConfigError, match=r"damping\.N_rrr.*unknown key"):
         load_vehicle6_config(bad)

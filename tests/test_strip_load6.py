@@ -14,10 +14,11 @@ import pytest
 
 from bridge.models.rigid_body6 import RigidBody6Params, rotation_matrix
 from bridge.models.strip_load6 import BodyFlow6, body_flow6, hydrodynamic_load6, strip_grid, wave_load6
+from bridge.models.vehicle6_config import load_rigid_body6
 from bridge.models.waves import WaveComponents, wavenumber
 
 # Damping off: a held body's drag on the flow's velocity would hide the inertia load
-HELD = replace(RigidBody6Params.load(), linear_damping=np.zeros(6), quadratic_damping=np.zeros(6))
+HELD = replace(load_rigid_body6(), linear_damping=np.zeros(6), quadratic_damping=np.zeros(6))
 DEPTH, WATER = 5.0, 54.0
 
 
@@ -132,7 +133,7 @@ def test_rotating_sea_and_heading_together_leaves_the_body_load_unchanged():
     turned = replace(waves, direction=base.direction + math.radians(70.0))
     strips = strip_grid(HELD.length, HELD.beam, 4, 3)
     nu = np.array([0.2, -0.1, 0.05, 0.1, -0.05, 0.2])
-    p = RigidBody6Params.load()                       # with damping: relative velocity and Munk both
+    p = load_rigid_body6()                       # with damping: relative velocity and Munk both
     eta0 = np.array([0.0, 0.0, DEPTH, 0.1, -0.05, 0.3])
     eta1 = eta0.copy()
     eta1[5] += math.radians(70.0)
@@ -160,7 +161,7 @@ def test_flow_is_rotated_into_the_body_frame():
 def test_a_body_moving_with_the_water_feels_only_the_inertia_load():
     """ν = the uniform flow's velocity: no drag and no Munk moment; the load is (ρ∇ + M_A) ν̇_f (minus the
     still-water load of its own motion, which wave_load6 takes off)."""
-    p = RigidBody6Params.load()
+    p = load_rigid_body6()
     strips = strip_grid(p.length, p.beam, 3, 3)
     v, a = np.array([0.3, -0.2, 0.1]), np.array([0.1, 0.2, -0.3])
     load = hydrodynamic_load6(p, np.concatenate([v, np.zeros(3)]), BodyFlow6.uniform(strips, v, a))

@@ -21,7 +21,6 @@ to each other. The rates and the RK4 step are in :mod:`bridge.models.motion6`, t
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -113,7 +112,7 @@ class RigidBody6Params:
 
     @classmethod
     def from_config(cls, cfg: dict) -> RigidBody6Params:
-        """Build from a validated six-DoF vehicle config (:func:`bridge.models.vehicle6_config.load_vehicle6_config`)."""
+        """Build from a validated six-DoF vehicle config (:mod:`bridge.models.vehicle6_config`)."""
         mp, am, dp = cfg["mass_properties"], cfg["added_mass"], cfg["damping"]
         dofs = (("X_u", "X_uu"), ("Y_v", "Y_vv"), ("Z_w", "Z_ww"), ("K_p", "K_pp"), ("M_q", "M_qq"), ("N_r", "N_rr"))
         return cls(W=mp["W"], B=mp["B"], I_x=mp["I_x"], I_y=mp["I_y"], I_z=mp["I_z"], r_G=np.array(mp["r_G"]),
@@ -122,12 +121,6 @@ class RigidBody6Params:
                    X_qdot=am["X_qdot"], linear_damping=np.array([dp[a] for a, _ in dofs]),
                    quadratic_damping=np.array([dp[b] for _, b in dofs]), displaced_volume=mp.get("displaced_volume"),
                    water_density=mp["water_density"])
-
-    @classmethod
-    def load(cls, path: str | Path = "bluerov2_heavy_6dof") -> RigidBody6Params:
-        """From ``configs/vehicle/NAME.yaml`` (or a path), validated on load."""
-        from .vehicle6_config import load_vehicle6_config
-        return cls.from_config(load_vehicle6_config(path))
 
 
 def rigid_body_mass(m: float, I_g: np.ndarray, r_g) -> np.ndarray:

@@ -11,10 +11,10 @@ import numpy as np
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
 
-from .rigid_body6 import rigid_body_mass
+from .rigid_body6 import RigidBody6Params, rigid_body_mass
 from .waves import G
 
-__all__ = ["VEHICLE6_SCHEMA", "load_vehicle6_config"]
+__all__ = ["VEHICLE6_SCHEMA", "load_rigid_body6", "load_vehicle6_config"]
 
 
 def _positive(hi: float, doc: str) -> Field:
@@ -77,3 +77,8 @@ def load_vehicle6_config(name_or_path: str | Path = "bluerov2_heavy_6dof") -> di
         raise ConfigError(path, "added_mass.X_qdot", f"got {am['X_qdot']!r}: the mass matrix is not positive "
                                                      f"definite; allowed: |X_qdot + m z_G| < {limit:.3g} kg m")
     return cfg
+
+
+def load_rigid_body6(name_or_path: str | Path = "bluerov2_heavy_6dof") -> RigidBody6Params:
+    """The six-DoF parameters of ``configs/vehicle/NAME.yaml`` (or a path), validated on load."""
+    return RigidBody6Params.from_config(load_vehicle6_config(name_or_path))
