@@ -5,11 +5,14 @@ names the file, the dotted key and the allowed range (:class:`bridge.configfile.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
 from bridge.configfile import ConfigError, Field, load_config, resolve_config
+from bridge.schemas import VEHICLE_SCHEMA, _positive
 
 from .rigid_body6 import RigidBody6Params, rigid_body_mass
 from .waves import G
@@ -17,32 +20,22 @@ from .waves import G
 __all__ = ["VEHICLE6_SCHEMA", "load_rigid_body6", "load_vehicle6_config"]
 
 
-def _positive(hi: float, doc: str) -> Field:
-    return Field("float", lo=0.0, lo_open=True, hi=hi, doc=doc)
-
-
 def _coefficients(names: tuple[str, ...], hi: tuple[float, ...], unit: tuple[str, ...]) -> dict:
     return {n: Field("float", lo=0.0, hi=h, doc=u) for n, h, u in zip(names, hi, unit, strict=True)}
 
 
+_PLANAR_MASS_PROPERTIES = cast("Mapping[str, Field]", VEHICLE_SCHEMA["mass_properties"])
 _LIN, _ROT = ("kg", "kg", "kg"), ("kg m^2", "kg m^2", "kg m^2")
 
 VEHICLE6_SCHEMA = {
     "name": Field("str"),
-    "mass_properties": {
-        "W": _positive(1e5, "weight (N)"),
-        "B": _positive(1e5, "buoyancy (N)"),
+    "mass_properties": {      # the planar vehicle's fields, and the inertias and the beam of the other axes
+        **{k: _PLANAR_MASS_PROPERTIES[k]
+           for k in ("W", "B", "r_G", "r_B", "length", "height", "displaced_volume", "water_density")},
         "I_x": _positive(1e3, "roll inertia about the CG (kg m^2)"),
         "I_y": _positive(1e3, "pitch inertia about the CG (kg m^2)"),
         "I_z": _positive(1e3, "yaw inertia about the CG (kg m^2)"),
-        "r_G": Field("floats", lo=-1.0, hi=1.0, length=3, doc="centre of gravity, body FRD (m)"),
-        "r_B": Field("floats", lo=-1.0, hi=1.0, length=3, doc="centre of buoyancy, body FRD (m)"),
-        "length": _positive(10.0, "body length (m)"),
         "beam": _positive(10.0, "body beam (m)"),
-        "height": _positive(10.0, "body height (m)"),
-        "displaced_volume": Field("float", lo=0.0, lo_open=True, hi=100.0, required=False,
-                                  doc="m^3; absent: B / (rho g), the volume the buoyancy implies"),
-        "water_density": Field("float", lo=990.0, hi=1050.0, default=1025.0, doc="kg/m^3"),
     },
     "added_mass": {
         **_coefficients(("X_udot", "Y_vdot", "Z_wdot"), (1e3, 1e3, 1e3), _LIN),
