@@ -138,8 +138,10 @@ def coriolis_matrix6(M: np.ndarray, nu) -> np.ndarray:
     C_A the ν₁ × P₁ moment is the Munk moment, e.g. (Z_ẇ − X_u̇) u w in pitch, (X_u̇ − Y_v̇) u v in yaw.
     """
     P = M @ np.asarray(nu, dtype=float)
-    S1, S2 = skew(P[:3]), skew(P[3:])
-    return np.block([[np.zeros((3, 3)), -S1], [-S1, -S2]])
+    C = np.zeros((6, 6))
+    C[:3, 3:] = C[3:, :3] = -skew(P[:3])
+    C[3:, 3:] = -skew(P[3:])
+    return C
 
 
 def damping_matrix6(p: RigidBody6Params, nu) -> np.ndarray:

@@ -108,7 +108,8 @@ def hydrodynamic_load6(p: RigidBody6Params, nu, flow: BodyFlow6 | None = None, i
         load[3:] = np.cross(flow.points, dF).sum(axis=0)
         a_bar = w @ af
         if p.wave_load_model == "complete":   # the Froude–Krylov force's lever at z_b, the added-mass coupling
-            load[3:] += np.cross([0.0, 0.0, p.r_B[2]], p.rho_V * a_bar) + p.M_A[3:, :3] @ a_bar
+            z_fk = p.r_B[2] * p.rho_V                                      # ẑ z_b × ρ∇ ā = z_b ρ∇ (−ā_y, ā_x, 0)
+            load[3:] += np.array([-z_fk * a_bar[1], z_fk * a_bar[0], 0.0]) + p.M_A[3:, :3] @ a_bar
         nu_r_bar = nu1 - w @ vf
     load[3:] -= (DL[3:] + DQ[3:] * np.abs(omega)) * omega
     nu_r = np.concatenate([nu_r_bar, omega])
