@@ -132,6 +132,29 @@ def test_free_decay_without_restoring_is_exponential(dof, damping):
     assert np.abs(others).max() < 1e-12
 
 
+@pytest.mark.parametrize("dof", [0, 1, 2, 5])
+def test_free_decay_under_quadratic_damping_is_hyperbolic(dof):
+    """M_ii ν̇ = −d_q ν|ν|: ν(t) = ν0 / (1 + d_q ν0 t / M_ii), with the BlueROV2's quadratic coefficients."""
+    DQ = np.zeros(6)
+    DQ[dof] = DEFAULT.quadratic_damping[dof]
+    p = _free(DEFAULT, linear_damping=np.zeros(6), quadratic_damping=DQ)
+    x0 = np.zeros(12)
+    x0[2], x0[6 + dof] = 5.0, 0.5
+    h, n = 0.005, 600                      # RK4's error at d_q ν0 / M_ii ≈ 4 /s (surge): ~5e-9
+    xs = _simulate(p, x0, h, n)
+    expected = 0.5 / (1.0 + DQ[dof] * 0.5 * h * np.arange(n + 1) / p.M[dof, dof])
+    np.testing.assert_allclose(xs[:, 6 + dof], expected, rtol=1e-8)
+
+
+def test_still_water_load_is_minus_the_added_mass_coriolis_and_the_damping():
+    """τ_h(ν, still water) = −C_A(ν) ν − D(ν) ν (Fossen's Eq. 6.1 terms), at arbitrary velocities."""
+    from bridge.models.rigid_body6 import damping_matrix6
+    for seed in range(3):
+        nu = np.random.default_rng(seed).normal(size=6)
+        want = -coriolis_matrix6(DEFAULT.M_A, nu) @ nu - damping_matrix6(DEFAULT, nu) @ nu
+        np.testing.assert_allclose(hydrodynamic_load6(DEFAULT, nu), want, atol=1e-13)
+
+
 @pytest.mark.parametrize("dof, inertia, damping", [(3, "I_x", 0.3), (4, "I_y", 0.8)])
 def test_roll_and_pitch_free_decay_is_the_damped_hydrostatic_oscillation(dof, inertia, damping):
     """(I + A) φ̈ + d φ̇ + W·BG φ = 0, φ(0) = φ0, φ̇(0) = 0: φ0 e^{−σt} (cos ω_d t + σ/ω_d sin ω_d t)."""

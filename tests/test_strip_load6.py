@@ -125,6 +125,20 @@ def test_a_very_long_wave_loads_the_held_body_as_a_uniform_flow(beta_deg):
         assert np.abs(load[[1, 3, 5]]).max() < 1e-12 * np.abs(load).max()
 
 
+def test_turning_the_sea_turns_the_horizontal_force():
+    """With equal surge and sway added mass, the long-wave horizontal force of a sea turned by β is the head
+    sea's turned by β: F_h(β) = R_z(β) F_h(0)."""
+    p = replace(HELD, added_mass=np.array([7.0, 7.0, 18.68, 0.189, 0.135, 0.222]))
+    strips = strip_grid(p.length, p.beam, 3, 3)
+    eta = np.array([0.0, 0.0, DEPTH, 0.0, 0.0, 0.0])
+    head = wave_load6(p, _one_wave(126.0, 0.0, 5.0, 0.4, 1e5), eta, np.zeros(6), 40.0, strips)
+    for beta in np.radians([30.0, 90.0, 200.0]):
+        load = wave_load6(p, _one_wave(126.0, beta, 5.0, 0.4, 1e5), eta, np.zeros(6), 40.0, strips)
+        turned = np.array([[math.cos(beta), -math.sin(beta)], [math.sin(beta), math.cos(beta)]]) @ head[:2]
+        np.testing.assert_allclose(load[:2], turned, atol=1e-7 * abs(head[0]))
+        assert load[2] == pytest.approx(head[2], rel=1e-7)
+
+
 def test_rotating_sea_and_heading_together_leaves_the_body_load_unchanged():
     """The load depends on the sea's direction relative to the heading, β − ψ (Rᵀ(Θ) of the flow): a sea and a
     vehicle both turned by 70° about the vertical through the vehicle feel what they felt before."""
