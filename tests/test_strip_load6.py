@@ -182,3 +182,18 @@ def test_a_body_moving_with_the_water_feels_only_the_inertia_load():
     expected = np.concatenate([(p.rho_V + p.added_mass[:3]) * a,
                                [0.028 * p.rho_V * a[1], -0.028 * p.rho_V * a[0] + 0.67 * a[0], 0.0]])
     np.testing.assert_allclose(load, expected, atol=1e-14)
+
+
+def test_a_current_is_rotated_into_the_body_and_drifts_a_body_that_moves_with_it_freely():
+    """A steady current (NED) in still water: the body-frame flow is Rᵀ(Θ) U_c at every strip, and a body
+    moving with it feels no load at all (no drag, no Munk moment, no acceleration)."""
+    p = load_rigid_body6()
+    still = WaveComponents(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), WATER, False)
+    strips = strip_grid(p.length, p.beam, 3, 3)
+    eta = np.array([0.0, 0.0, DEPTH, 0.1, -0.2, 2.0])
+    current = np.array([0.4, -0.3, 0.0])
+    flow = body_flow6(still, eta, 0.0, strips, current)
+    body = rotation_matrix(*eta[3:]).T @ current
+    np.testing.assert_allclose(flow.nu_f[0], np.tile(body, (9, 1)), atol=1e-15)
+    np.testing.assert_allclose(flow.a_f, 0.0, atol=0.0)
+    np.testing.assert_allclose(hydrodynamic_load6(p, np.concatenate([body, np.zeros(3)]), flow), 0.0, atol=1e-14)

@@ -28,7 +28,7 @@ from .vehicle import RHO_SEAWATER, WAVE_LOAD_MODELS, VehicleParams, submerged_fr
 from .waves import G
 
 __all__ = ["RigidBody6Params", "coriolis_matrix6", "damping_matrix6", "euler_rate_matrix", "kinematics_J",
-           "kinetic_energy", "restoring_forces6", "rotation_matrix", "skew"]
+           "kinetic_energy", "restoring_forces6", "rigid_body_mass", "rotation_matrix", "skew"]
 
 
 def skew(a) -> np.ndarray:
