@@ -29,13 +29,14 @@ has the first circular moment E[cos(θ − θ_p)] = s/(s + 1) and the circular s
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .waves import WaveComponents, _depth_factors_into
 
-__all__ = ["cos2s_density", "cos2s_directions", "kinematics_xyz", "spread_components"]
+__all__ = ["DirectionalMoments", "cos2s_density", "cos2s_directions", "directional_moments", "kinematics_xyz",
+           "spread_components"]
 
 
 def cos2s_density(theta, s: float, theta_p: float = 0.0) -> np.ndarray:
@@ -73,6 +74,31 @@ def spread_components(components: WaveComponents, s: float | None, theta_p: floa
     ``s`` None or infinite gives a long-crested sea travelling towards θ_p.
     """
     return replace(components, direction=cos2s_directions(s, theta_p, components.n, rng))
+
+
+@dataclass(frozen=True)
+class DirectionalMoments:
+    """The energy-weighted circular statistics of a sea's directions (what a directional buoy reports).
+
+    ``mean`` θ̄ (rad), the direction of Σ w_i (cos β_i, sin β_i) with w_i = A_i²/ΣA²; ``r1`` the first
+    circular moment |Σ w_i e^{iβ_i}| (s/(s + 1) for a cos-2s sea); ``spread`` √(2 (1 − r1)) (rad,
+    √(2/(s + 1))); ``n_eff`` = 1/Σ w_i², the number of equally energetic components the same
+    statistics would have (their sampling error goes as 1/√n_eff).
+    """
+
+    mean: float
+    r1: float
+    spread: float
+    n_eff: float
+
+
+def directional_moments(c: WaveComponents) -> DirectionalMoments:
+    """The realised directional spread of the components: :class:`DirectionalMoments` (long-crested: r1 = 1)."""
+    w = c.amplitude**2 / np.sum(c.amplitude**2)
+    beta = np.zeros(c.n) if c.direction is None else np.asarray(c.direction, dtype=float)
+    z = complex(w @ np.cos(beta), w @ np.sin(beta))
+    r1 = min(abs(z), 1.0)
+    return DirectionalMoments(math.atan2(z.imag, z.real), r1, math.sqrt(2.0 * (1.0 - r1)), float(1.0 / (w @ w)))
 
 
 def _points(x, y, depth) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
