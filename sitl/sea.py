@@ -21,6 +21,7 @@ import numpy as np
 
 from bridge.configfile import ConfigError, Field, apply_overrides, read_yaml, resolve_config, validate
 from bridge.csvio import read_numeric_csv
+from bridge.models.directional_sea import cos2s_directions
 from bridge.models.vehicle import WAVE_LOAD_MODELS
 from bridge.models.waves import (
     G,
@@ -274,20 +275,6 @@ def _check_focus(path: Path, cfg: dict) -> None:
     if f["crest"] is not None and cfg["spectrum"]["type"] == "jonswap" and f["crest"] > FOCUS_MAX_CREST_OVER_HS * hs:
         raise ConfigError(path, "focus.crest", f"got {f['crest']!r}; allowed: (0, {FOCUS_MAX_CREST_OVER_HS * hs:g}] m "
                                                f"({FOCUS_MAX_CREST_OVER_HS:g} Hs)")
-
-
-def cos2s_directions(s: float, mean: float, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n directions of travel β (rad) drawn from the cos-2s spreading function about ``mean`` (rad).
-
-    D(β) ∝ cos^{2s}((β − β_m)/2) on (β_m − π, β_m + π] (Longuet-Higgins, Cartwright & Smith 1963),
-    sampled by inverting its CDF tabulated on 4096 points. Its first circular moment is
-    E[cos(β − β_m)] = s/(s + 1) (tested). One direction per frequency component (the
-    single-summation model): the sea's frequency spectrum and Hs stay exactly the drawn ones.
-    """
-    grid = np.linspace(-np.pi, np.pi, 4097)
-    dens = np.cos(0.5 * grid) ** (2.0 * s)
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(grid))])
-    return mean + np.interp(rng.uniform(0.0, 1.0, n), cdf / cdf[-1], grid)
 
 
 # ---------------------------------------------------------------------------- design waves

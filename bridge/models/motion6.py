@@ -1,0 +1,66 @@
+"""The six-DoF equations of motion: the state's rates and one RK4 step, and the planar limit.
+
+x = [η; ν] (12,) with η = [x, y, z, φ, θ, ψ] (NED m, zyx Euler rad) and ν = [u, v, w, p, q, r] (body
+FRD m/s, rad/s)::
+
+    η̇ = J(η) ν
+    ν̇ = M⁻¹ (τ + τ_h(ν, flow) − C_RB(ν) ν − g(η))
+
+τ (6,) is the thrusters' (and any other prescribed) load, τ_h the hydrodynamic load of
+:func:`~bridge.models.strip_load6.hydrodynamic_load6`: in still water −C_A(ν)ν − D(ν)ν, in a sea
+that plus τ_wave (:func:`~bridge.models.strip_load6.wave_load6`), so that ẋ = f(x, τ, τ_wave).
+
+The step keeps the planar plant's discipline (:func:`bridge.models.vehicle.rk4_step`): τ is given at
+the stage times t, t + h/2, t + h and the flow sampled at those instants for the pose at the start of
+the step (one batched evaluation serves the four stages).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .rigid_body6 import RigidBody6Params, coriolis_matrix6, kinematics_J, restoring_forces6
+from .strip_load6 import BodyFlow6, hydrodynamic_load6
+
+__all__ = ["PLANAR_DOFS", "from_planar", "rk4_step6", "state_derivative6", "to_planar"]
+
+PLANAR_DOFS = (0, 2, 4)
+"""Indices of (x, z, θ) in η and of (u, w, q) in ν: the planar model's degrees of freedom."""
+
+_PLANAR_STATE = np.array([0, 2, 4, 6, 8, 10])   # (x, z, θ, u, w, q) in x = [η; ν]
+
+
+def state_derivative6(p: RigidBody6Params, x, tau, flow: BodyFlow6 | None = None, i: int = 0) -> np.ndarray:
+    """ẋ (12,) for x = [η; ν] under the load τ (6,; N, N m) in ``flow`` at its instant i (None: still water)."""
+    x = np.asarray(x, dtype=float)
+    eta, nu = x[:6], x[6:]
+    rhs = (np.asarray(tau, dtype=float) + hydrodynamic_load6(p, nu, flow, i)
+           - coriolis_matrix6(p.M_RB, nu) @ nu - restoring_forces6(p, eta))
+    return np.concatenate([kinematics_J(eta) @ nu, p.M_inv @ rhs])
+
+
+def rk4_step6(p: RigidBody6Params, x, h: float, tau_stages, flow: BodyFlow6 | None = None) -> np.ndarray:
+    """One classical RK4 step of :func:`state_derivative6` over h seconds.
+
+    ``tau_stages`` (3, 6): τ at t, t + h/2 and t + h; ``flow``: the fluid at the strips at those three
+    instants (:func:`~bridge.models.strip_load6.body_flow6` at t + [0, h/2, h]), or None for still water.
+    """
+    x = np.asarray(x, dtype=float)
+    tau0, tau_half, tau1 = np.asarray(tau_stages, dtype=float)
+    f = (lambda i: (flow, i)) if flow is not None else (lambda i: (None, 0))
+    k1 = state_derivative6(p, x, tau0, *f(0))
+    k2 = state_derivative6(p, x + (0.5 * h) * k1, tau_half, *f(1))
+    k3 = state_derivative6(p, x + (0.5 * h) * k2, tau_half, *f(1))
+    k4 = state_derivative6(p, x + h * k3, tau1, *f(2))
+    return x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+
+
+def from_planar(x3) -> np.ndarray:
+    """The six-DoF state (12,) of a planar state [x, z, θ, u, w, q]: y, φ, ψ, v, p, r = 0."""
+    x = np.zeros(12)
+    x[_PLANAR_STATE] = np.asarray(x3, dtype=float)
+    return x
+
+
+def to_planar(x6) -> np.ndarray:
+    """The planar part [x, z, θ, u, w, q] of a six-DoF state or its rates (12,)."""
+    return np.asarray(x6, dtype=float)[_PLANAR_STATE]
