@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test lint bench clean
+.PHONY: run test test-fast lint bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,8 +30,16 @@ ARGS ?=
 run: $(STAMP)
 	$(BIN)/wavekeep sim --case W3 --controller cpd_ff --force $(ARGS)
 
+# Two workers, one test file each at a time (a file's shared boots and module fixtures stay on one worker);
+# TEST_WORKERS=0 runs in one process
+TEST_WORKERS ?= 2
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile
+
+# The inner loop's tier (about 2 minutes): every package's tests but those that start processes
+# (launcher, companion, campaigns, the real ArduSub, the browser), which `make test` adds
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not processes"
 
 # ruff (style and bugs), mypy (types), import-linter (the layers of docs/architecture.md)
 lint: $(STAMP)
