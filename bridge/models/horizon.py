@@ -12,18 +12,22 @@ c_k = (v_k − e_k v_{k−1}) / (1 − e_k), e_k = e^{−Δ_k/t_m}, what the mix
 constant disturbance wrench d (N, N, N m), integrated by one RK4 step per horizon step.
 
 :func:`linearise_horizon` returns the states x_0..x_N of that rollout and, per step, the Jacobians of
-x_{k+1} = F_k(x_k, v_{k−1}, v_k): A_k = ∂F_k/∂x_k, B_k = ∂F_k/∂v_k, E_k = ∂F_k/∂v_{k−1}, by forward
-differences (state step 1e-6·max(1, |x_j|), input step 1e-6·max(1, |v_j|) N). The compiled kernel
-(:func:`~bridge.models.kernels.horizon_arr`) when enabled, else the reference below (the same arithmetic).
+x_{k+1} = F_k(x_k, v_{k−1}, v_k): A_k = ∂F_k/∂x_k, B_k = ∂F_k/∂v_k, E_k = ∂F_k/∂v_{k−1}. With the kernels
+enabled, exactly, by the chain rule through the RK4 stages (:func:`~bridge.models.horizon_kernels.horizon_lin_arr`);
+else the reference below, by forward differences (state step 1e-6·max(1, |x_j|), input step
+1e-6·max(1, |v_j|) N), which agrees to the differences' truncation (≈ 1e-6 of the Jacobians' scale). The
+rollout is the same arithmetic on both paths.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from . import horizon_kernels, kernels
 from .vehicle import BodyFlow, VehicleParams, rk4_step
 
-__all__ = ["horizon_grid", "lag_profile", "linearise_horizon", "stage_times"]
+__all__ = ["horizon_grid", "lag_profile", "linearise_horizon", "stage_times", "warm_up"]
+
+warm_up = horizon_kernels.warm_up
 
 
 def lag_profile(dt: np.ndarray, t_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -55,10 +59,10 @@ def linearise_horizon(p: VehicleParams, x0: np.ndarray, tau0: np.ndarray, V: np.
     if kernels.ENABLED:
         if flow is None:
             z = np.zeros((3 * V.shape[0], 1))
-            return kernels.horizon_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, False, np.zeros(1), np.ones(1),
-                                       z, z, z, z)
-        return kernels.horizon_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, True, flow.xs, flow.wts, flow.u,
-                                   flow.w, flow.ax, flow.az)
+            return horizon_kernels.horizon_lin_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, False, np.zeros(1),
+                                                   np.ones(1), z, z, z, z)
+        return horizon_kernels.horizon_lin_arr(p.kernel_params, x0, tau0, V, dt, a_mid, d, True, flow.xs, flow.wts,
+                                               flow.u, flow.w, flow.ax, flow.az)
     n = V.shape[0]
     X = np.empty((n + 1, 6))
     A, B, E = np.empty((n, 6, 6)), np.empty((n, 6, 3)), np.empty((n, 6, 3))

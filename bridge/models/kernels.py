@@ -3,15 +3,15 @@
 The wave kinematics at a body's strips (:func:`body_flow_arrays`), the
 relative-velocity load (:func:`hydro_load`), the rates of paper Eq. 2
 (:func:`state_rates_arr`), one RK4 step (:func:`rk4_arr`), the
-estimator's finite-difference Jacobian (:func:`jacobian_arr`), the
-saturation preview's simulation (:func:`preview_worst_arr`) and the MPC's
-horizon rollout and linearisation (:func:`horizon_arr`) are written
+estimator's finite-difference Jacobian (:func:`jacobian_arr`) and the
+saturation preview's simulation (:func:`preview_worst_arr`) are written
 here once, in loops over plain float arrays, in the same arithmetic order as
 the reference code in :mod:`bridge.models.waves` and
 :mod:`bridge.models.vehicle` (tests assert agreement to 1e-12). The motor
 mixer's allocation (:func:`allocate_arr`) and the T200 curve's whole-µs
 command (:func:`t200_command_arr`) are their references' operations one
-for one: the same bits.
+for one: the same bits. The MPC horizon's rollout and its analytic linearisation build on these in
+:mod:`bridge.models.horizon_kernels`.
 
 ``WAVEKEEP_NUMBA=0`` in the environment (read at import) selects the
 reference numpy/Python path everywhere; so does a missing numba. The
@@ -33,7 +33,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "horizon_arr", "hydro_load", "jacobian_arr",
+__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "hydro_load", "jacobian_arr",
            "prediction_matrix_arr", "preview_worst_arr",
            "rk4_arr", "state_rates_arr", "t200_command_arr", "warm_up"]
 
@@ -221,56 +221,6 @@ def jacobian_arr(pv, x, tau, has_flow, xs, wts, up, wp, ax, az):  # pragma: no c
 
 
 @njit(cache=True)
-def horizon_arr(pv, x0, tau0, V, dt, a_mid, d, has_flow, xs, wts, up, wp, ax, az):  # pragma: no cover - compiled
-    """:func:`~bridge.models.horizon.linearise_horizon`: rollout X (N+1, 6) and forward-difference Jacobians
-    A (N, 6, 6), B (N, 6, 3), E (N, 6, 3); the flow arrays are (3N, S), step k's stages at rows 3k..3k+2."""
-    n = V.shape[0]
-    X = np.empty((n + 1, 6))
-    A = np.empty((n, 6, 6))
-    B = np.empty((n, 6, 3))
-    E = np.empty((n, 6, 3))
-    X[0] = x0
-    st = np.empty((3, 3))
-    for k in range(n):
-        r = 3 * k
-        fu, fw, fax, faz = up[r:r + 3], wp[r:r + 3], ax[r:r + 3], az[r:r + 3]
-        vp = tau0.copy() if k == 0 else V[k - 1].copy()
-        vk = V[k].copy()
-        for c in range(3):
-            st[0, c] = vp[c] + d[c]
-            st[1, c] = vp[c] + a_mid[k] * (vk[c] - vp[c]) + d[c]
-            st[2, c] = vk[c] + d[c]
-        x = X[k].copy()
-        f0 = rk4_arr(pv, x, dt[k], st, has_flow, xs, wts, fu, fw, fax, faz)
-        X[k + 1] = f0
-        for j in range(6):
-            h = 1e-6 * max(1.0, abs(x[j]))
-            xq = x.copy()
-            xq[j] += h
-            fj = rk4_arr(pv, xq, dt[k], st, has_flow, xs, wts, fu, fw, fax, faz)
-            for i in range(6):
-                A[k, i, j] = (fj[i] - f0[i]) / h
-        for j in range(3):
-            for which in range(2):          # 0: v_k, 1: v_{k−1}
-                base = vk[j] if which == 0 else vp[j]
-                h = 1e-6 * max(1.0, abs(base))
-                sq = st.copy()
-                if which == 0:
-                    sq[1, j] = vp[j] + a_mid[k] * ((vk[j] + h) - vp[j]) + d[j]
-                    sq[2, j] = (vk[j] + h) + d[j]
-                else:
-                    sq[0, j] = (vp[j] + h) + d[j]
-                    sq[1, j] = (vp[j] + h) + a_mid[k] * (vk[j] - (vp[j] + h)) + d[j]
-                fj = rk4_arr(pv, x, dt[k], sq, has_flow, xs, wts, fu, fw, fax, faz)
-                for i in range(6):
-                    if which == 0:
-                        B[k, i, j] = (fj[i] - f0[i]) / h
-                    else:
-                        E[k, i, j] = (fj[i] - f0[i]) / h
-    return X, A, B, E
-
-
-@njit(cache=True)
 def prediction_matrix_arr(A, B, E):  # pragma: no cover - compiled
     """:func:`~firmware_py.control.mpc_qp.prediction_matrix`: S (6N, 3N) with δX = S δV for
     δx_{k+1} = A_k δx_k + B_k δv_k + E_k δv_{k−1}; block row k is x_{k+1}, and only its columns ≤ k fill."""
@@ -439,9 +389,6 @@ def warm_up() -> None:
     z2, g = np.zeros(2), np.ones((6, 2))
     preview_worst_arr(pv, g, z1, one, z3, z3, z3, z3, np.zeros((1, 2)), z2, z2, z2, 0.1, 0.1)
     prediction_matrix_arr(np.zeros((1, 6, 6)), np.zeros((1, 6, 3)), np.zeros((1, 6, 3)))
-    for has in (True, False):
-        horizon_arr(pv, x, np.zeros(3), np.zeros((1, 3)), np.full(1, 0.05), np.full(1, 0.5), np.zeros(3), has, z1,
-                    one, z3, z3, z3, z3)
     allocate_arr(np.ones((8, 3)), np.zeros(3), 1.0)
     tab, knots = np.array([-1.0, 0.0]), np.array([0.0, 1.0, 2.0])
     t200_command_arr(np.zeros(8), -1.0, 1.0, 1.5, tab, tab, tab, tab, 0.0, 2.0, knots, np.ones((4, 2)))

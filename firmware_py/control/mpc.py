@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, stage_times
+from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, stage_times, warm_up
 from bridge.models.thrusters import ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, restoring_terms
 
@@ -126,6 +126,7 @@ class PreviewMPC:
         self._plan: tuple[float, np.ndarray] | None = None     # (time the plan's command started, V (N, 3))
         self._falling_back = False
         self._predicted_uw: tuple[float, float] | None = None   # [u, w] (m/s) the last plan predicted for now
+        warm_up()        # the horizon's kernel loaded now, not on a real-time loop's first ticks
 
     def reset(self) -> None:
         self.fallback.reset()
