@@ -440,3 +440,21 @@ def test_the_analytic_jacobians_are_the_central_differences_of_the_rates_and_the
               tol=1e-8)
         close(Ep, np.stack([(step(x, dp=eps * e) - step(x, dp=-eps * e)) / (2 * eps) for e in np.eye(3)], axis=1),
               tol=1e-8)
+
+
+@needs_numba
+def test_the_horizon_flow_by_angle_addition_is_the_flow_at_those_times(sea, vehicle):
+    """The MPC's flow along its horizon (time phases from cos/sin(ω o_i) built once per forecast, shifted to each
+    tick's start by angle addition) against body_flow at the instants t0 + o_i, late in a mission (t0 = 3000 s,
+    where ω t is largest): equal to 1e-12 of the flow's scale, velocities and accelerations."""
+    from bridge.models.horizon import OffsetPhases, horizon_flow, horizon_grid, stage_times
+
+    offsets, _, _ = stage_times(horizon_grid(0.05, 0.1, 40), exact_steps=1)
+    phases = OffsetPhases(sea.components, offsets)
+    strips = strip_nodes(vehicle.length, 6)
+    for t0, pose in ((12.35, (0.1, 5.0, 0.02)), (3000.05, (-0.4, 4.7, -0.1))):
+        got = horizon_flow(phases, np.array(pose), t0, strips)
+        want = body_flow(sea.components, np.array(pose), t0 + offsets, strips)
+        for a, b in zip((got.u, got.w, got.ax, got.az), (want.u, want.w, want.ax, want.az), strict=True):
+            close(a, b)
+    assert phases.fits(sea.components, offsets) and not phases.fits(sea.components, offsets[:-1])

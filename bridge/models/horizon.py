@@ -23,9 +23,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import horizon_kernels, kernels
-from .vehicle import BodyFlow, VehicleParams, rk4_step
+from .vehicle import BodyFlow, VehicleParams, body_flow, rk4_step
+from .waves import WaveComponents
 
-__all__ = ["horizon_grid", "lag_profile", "linearise_horizon", "stage_times", "warm_up"]
+__all__ = ["OffsetPhases", "horizon_flow", "horizon_grid", "lag_profile", "linearise_horizon", "stage_times",
+           "warm_up"]
 
 warm_up = horizon_kernels.warm_up
 
@@ -116,3 +118,34 @@ def stage_times(dt: np.ndarray, exact_steps: int | None = None) -> tuple[np.ndar
     a = np.stack([start, mid_a, end], axis=1).ravel()
     b = np.stack([start, mid_b, end], axis=1).ravel()
     return offsets, a, b
+
+
+class OffsetPhases:
+    """cos(ω o_i), sin(ω o_i) (T, N) of one set of wave components at a horizon's instants o_i (s after its start):
+    built once per forecast and horizon, so that each tick's flow along the horizon (:func:`horizon_flow`) takes
+    N sines and cosines for its start time instead of T·N."""
+
+    def __init__(self, waves: WaveComponents, offsets: np.ndarray):
+        self.waves, self.offsets = waves, np.asarray(offsets, dtype=float)
+        b = np.multiply.outer(self.offsets, waves.omega)
+        self.cos, self.sin = np.cos(b), np.sin(b)
+
+    def fits(self, waves: WaveComponents, offsets: np.ndarray) -> bool:
+        """Built for these components and instants?"""
+        return waves is self.waves and np.array_equal(offsets, self.offsets)
+
+
+def horizon_flow(phases: OffsetPhases, eta, t0: float, strips: tuple[np.ndarray, np.ndarray]) -> BodyFlow:
+    """:func:`~bridge.models.vehicle.body_flow` of ``phases.waves`` at pose η at the instants t0 + o_i (s), no
+    current: the time phases by angle addition from ``phases`` (equal to the direct ones to rounding)."""
+    waves = phases.waves
+    if not kernels.ENABLED:
+        return body_flow(waves, eta, t0 + phases.offsets, strips)
+    xs, wts = strips
+    x_e2d, _, inv, inv4 = waves._depth_constants
+    coef, rate = waves._series_constants
+    cb, sb = kernels.shifted_time_phases(waves.omega, float(t0), phases.cos, phases.sin, coef.shape[0])
+    out = kernels.body_flow_at_phases(waves.k, waves.phase, coef, rate, x_e2d, inv, inv4, waves.water_depth,
+                                      float(eta[0]), float(eta[1]), float(eta[2]), xs, cb, sb, waves.kx,
+                                      waves.in_plane_or_ones)
+    return BodyFlow(xs, wts, out[0], out[1], out[2], out[3])

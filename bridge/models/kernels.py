@@ -33,9 +33,9 @@ import os
 
 import numpy as np
 
-__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "hydro_load", "jacobian_arr",
+__all__ = ["ENABLED", "allocate_arr", "body_flow_arrays", "body_flow_at_phases", "hydro_load", "jacobian_arr",
            "prediction_matrix_arr", "preview_worst_arr",
-           "rk4_arr", "state_rates_arr", "t200_command_arr", "warm_up"]
+           "rk4_arr", "shifted_time_phases", "state_rates_arr", "t200_command_arr", "time_phases", "warm_up"]
 
 
 def _wanted() -> bool:
@@ -68,13 +68,17 @@ def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
     :func:`~bridge.models.vehicle.body_flow` over
     :func:`~bridge.models.waves.particle_kinematics_grid`, summed per component in order.
     """
-    orders, n = coef.shape
-    S, T = xs.size, t.size
-    c, s = math.cos(th), math.sin(th)
-    on = orders * n
-    # cos/sin of ω t per time and order (order 2 by the double angle), laid out (T, orders·N)
-    cb = np.empty((T, on))
-    sb = np.empty((T, on))
+    cb, sb = time_phases(omega, t, coef.shape[0])
+    return body_flow_at_phases(k, phase, coef, rate, x_e2d, inv, inv4, water_depth, eta0, eta1, th, xs, cb, sb,
+                               kx, hx)
+
+
+@njit(cache=True)
+def time_phases(omega, t, orders):  # pragma: no cover - compiled
+    """cos and sin of ω t per time and order (order 2 by the double angle), laid out (T, orders·N) each."""
+    n, T = omega.size, t.size
+    cb = np.empty((T, orders * n))
+    sb = np.empty((T, orders * n))
     for i in range(T):
         for j in range(n):
             b = t[i] * omega[j]
@@ -83,6 +87,35 @@ def body_flow_arrays(k, omega, phase, coef, rate, x_e2d, inv, inv4, water_depth,
             if orders > 1:
                 cb[i, n + j] = cb[i, j] ** 2 - sb[i, j] ** 2
                 sb[i, n + j] = cb[i, j] * sb[i, j] * 2.0
+    return cb, sb
+
+
+@njit(cache=True)
+def shifted_time_phases(omega, t0, cos_o, sin_o, orders):  # pragma: no cover - compiled
+    """:func:`time_phases` at the times t0 + o_i from cos(ω o_i), sin(ω o_i) (T, N), by angle addition: N sines
+    and cosines instead of T·N, equal to :func:`time_phases`' to rounding (≈ 1e-16 a phase)."""
+    n, T = omega.size, cos_o.shape[0]
+    cb = np.empty((T, orders * n))
+    sb = np.empty((T, orders * n))
+    for j in range(n):
+        c0, s0 = math.cos(t0 * omega[j]), math.sin(t0 * omega[j])
+        for i in range(T):
+            cb[i, j] = c0 * cos_o[i, j] - s0 * sin_o[i, j]
+            sb[i, j] = s0 * cos_o[i, j] + c0 * sin_o[i, j]
+            if orders > 1:
+                cb[i, n + j] = cb[i, j] ** 2 - sb[i, j] ** 2
+                sb[i, n + j] = cb[i, j] * sb[i, j] * 2.0
+    return cb, sb
+
+
+@njit(cache=True)
+def body_flow_at_phases(k, phase, coef, rate, x_e2d, inv, inv4, water_depth,
+                        eta0, eta1, th, xs, cb, sb, kx, hx):  # pragma: no cover - compiled
+    """:func:`body_flow_arrays` with the time phases given (:func:`time_phases` or :func:`shifted_time_phases`)."""
+    orders, n = coef.shape
+    S, T = xs.size, cb.shape[0]
+    c, s = math.cos(th), math.sin(th)
+    on = orders * n
     out = np.empty((4, T, S))
     W = np.empty((4, on))
     Wc = np.empty((4, on))
@@ -380,6 +413,7 @@ def warm_up() -> None:
     pv = np.ones(31)
     body_flow_arrays(one, one, z1, np.ones((2, 1)), np.ones((2, 1)), z1, one, one, 10.0, 0.0, 1.0, 0.0, z1,
                      np.zeros(3), one, one)
+    shifted_time_phases(one, 0.0, np.ones((1, 1)), np.zeros((1, 1)), 2)
     x, tau = np.zeros(6), np.zeros((3, 3))
     for has in (True, False):
         hydro_load(pv, 0.0, 0.0, 0.0, has, z1, one, z1, z1, z1, z1)

@@ -31,9 +31,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from bridge.models.horizon import horizon_grid, lag_profile, linearise_horizon, stage_times, warm_up
+from bridge.models.horizon import (
+    OffsetPhases,
+    horizon_flow,
+    horizon_grid,
+    lag_profile,
+    linearise_horizon,
+    stage_times,
+    warm_up,
+)
 from bridge.models.thrusters import ThrusterLayout
-from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, restoring_terms
+from bridge.models.vehicle import BodyFlow, VehicleParams, restoring_terms
 
 from ..modes import MAV_SEVERITY
 from ..params.table import ParameterTable
@@ -126,6 +134,7 @@ class PreviewMPC:
         self._plan: tuple[float, np.ndarray] | None = None     # (time the plan's command started, V (N, 3))
         self._falling_back = False
         self._predicted_uw: tuple[float, float] | None = None   # [u, w] (m/s) the last plan predicted for now
+        self._phases: OffsetPhases | None = None    # the forecast's time phases at the horizon's instants
         warm_up()        # the horizon's kernel loaded now, not on a real-time loop's first ticks
 
     def reset(self) -> None:
@@ -250,7 +259,10 @@ class PreviewMPC:
         if not (weight > 0.0).any():
             return None
         times = c.t_ahead + st.offsets
-        f = body_flow(c.forecast.components, np.asarray(c.x_ahead[:3], dtype=float), times, self.strips)
+        waves = c.forecast.components
+        if self._phases is None or not self._phases.fits(waves, st.offsets):   # once per forecast and horizon
+            self._phases = OffsetPhases(waves, st.offsets)
+        f = horizon_flow(self._phases, np.asarray(c.x_ahead[:3], dtype=float), c.t_ahead, self.strips)
         a, b = st.stage_a, st.stage_b
         keep = 0.5 * (times <= c.forecast.forecast.valid_until)[:, None]   # past its window: still water
         u, w, ax, az = (vk[a] + vk[b] for vk in (v * keep for v in (f.u, f.w, f.ax, f.az)))
