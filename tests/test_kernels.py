@@ -415,31 +415,38 @@ def test_the_analytic_jacobians_are_the_central_differences_of_the_rates_and_the
     (step 1e-6, truncation ≈ 1e-12 of the scale away from a zero relative velocity, where v|v| has no second
     derivative): ∂f/∂x of the rates in still water and in the flow (a pose near the surface, where the
     buoyancy fades with z, included), and the RK4 step's ∂F/∂x, ∂F/∂v, ∂F/∂v_prev."""
-    from bridge.models import horizon_kernels as hk
 
     pv, x = vehicle.kernel_params, np.array(x)
     f = body_flow(sea.components, x[:3], 40.0 + np.array([0.0, 0.05, 0.1]), strip_nodes(vehicle.length, 3))
-    flows = [(False, np.zeros(1), np.ones(1), np.zeros((3, 1)), np.zeros((3, 1)), np.zeros((3, 1)), np.zeros((3, 1))),
-             (True, f.xs, f.wts, f.u, f.w, f.ax, f.az)]
+    z3 = np.zeros((3, 1))
     tau = np.array([[5.0, -10.0, 1.0], [6.0, -8.0, 0.5], [7.0, -6.0, 0.0]])
     sig_v, sig_p = np.array([0.0, 0.4, 0.4, 1.0]), np.array([1.0, 0.6, 0.6, 0.0])
-    eps = 1e-6
-    for has, xs, wts, up, wp, ax, az in flows:
-        J = hk.rates_jacobian_arr(pv, x, has, xs, wts, up[0], wp[0])
-        rates = lambda y: kernels.state_rates_arr(pv, y, tau[0], has, xs, wts, up[0], wp[0], ax[0], az[0])  # noqa: E731
-        num = np.stack([(rates(x + eps * e) - rates(x - eps * e)) / (2 * eps) for e in np.eye(6)], axis=1)
-        close(J, num, tol=1e-8)
+    for flow in ((False, np.zeros(1), np.ones(1), z3, z3, z3, z3), (True, f.xs, f.wts, f.u, f.w, f.ax, f.az)):
+        _check_linearisation(pv, x, tau, sig_v, sig_p, flow)
 
-        def step(y, dv=np.zeros(3), dp=np.zeros(3)):
-            st = tau + np.outer(sig_v[[0, 1, 3]], dv) + np.outer(sig_p[[0, 1, 3]], dp)
-            return kernels.rk4_arr(pv, y, 0.1, st, has, xs, wts, up, wp, ax, az)
-        xn, F, Bv, Ep = hk.rk4_linearised_arr(pv, x, 0.1, tau, sig_v, sig_p, has, xs, wts, up, wp, ax, az)
-        close(xn, step(x), tol=0.0)          # the rollout: rk4_arr's bits
-        close(F, np.stack([(step(x + eps * e) - step(x - eps * e)) / (2 * eps) for e in np.eye(6)], axis=1), tol=1e-8)
-        close(Bv, np.stack([(step(x, dv=eps * e) - step(x, dv=-eps * e)) / (2 * eps) for e in np.eye(3)], axis=1),
-              tol=1e-8)
-        close(Ep, np.stack([(step(x, dp=eps * e) - step(x, dp=-eps * e)) / (2 * eps) for e in np.eye(3)], axis=1),
-              tol=1e-8)
+
+def _central(fn, x: np.ndarray, eps: float = 1e-6) -> np.ndarray:
+    """∂fn/∂x by central differences, one column per component of x."""
+    return np.stack([(fn(x + eps * e) - fn(x - eps * e)) / (2 * eps) for e in np.eye(x.size)], axis=1)
+
+
+def _check_linearisation(pv, x, tau, sig_v, sig_p, flow) -> None:
+    from bridge.models import horizon_kernels as hk
+
+    has, xs, wts, up, wp, ax, az = flow
+    J = hk.rates_jacobian_arr(pv, x, has, xs, wts, up[0], wp[0])
+    close(J, _central(lambda y: kernels.state_rates_arr(pv, y, tau[0], has, xs, wts, up[0], wp[0], ax[0], az[0]), x),
+          tol=1e-8)
+
+    def step(y, dv, dp):
+        st = tau + np.outer(sig_v[[0, 1, 3]], dv) + np.outer(sig_p[[0, 1, 3]], dp)
+        return kernels.rk4_arr(pv, y, 0.1, st, has, xs, wts, up, wp, ax, az)
+    z = np.zeros(3)
+    xn, F, Bv, Ep = hk.rk4_linearised_arr(pv, x, 0.1, tau, sig_v, sig_p, has, xs, wts, up, wp, ax, az)
+    close(xn, step(x, z, z), tol=0.0)          # the rollout: rk4_arr's bits
+    close(F, _central(lambda y: step(y, z, z), x), tol=1e-8)
+    close(Bv, _central(lambda v: step(x, v, z), z), tol=1e-8)
+    close(Ep, _central(lambda v: step(x, z, v), z), tol=1e-8)
 
 
 @needs_numba
