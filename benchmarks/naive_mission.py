@@ -8,8 +8,8 @@ linear kinematics at six strips along the body (as the world's plant), the paper
 (Table II: surge, heave, pitch, added mass, linear and quadratic damping on each strip's relative
 velocity, the wave's added-mass load, restoring), one classical RK4 step per 20 Hz control period, and
 the authors' cascaded PD (K_p, K_d, inner-loop gain, normalised effort clipped to ±1 and scaled by
-τ_max). No estimator, no thrusters' curve or lag, no I/O during the mission. It prints one JSON line: the mission's wall time (s) and its
-RMSE, so a run can be checked for a sensible flight.
+τ_max). No estimator, no thrusters' curve or lag, no I/O during the mission. It prints one JSON line:
+the mission's wall time (s) and its RMSE, so a run can be checked for a sensible flight.
 
 Its time is the yardstick: machine-independent ratios (``benchmarks/bench_mission_time.py``) say how
 many times faster than this script a Wavekeep mission of the same length flies.
