@@ -4,6 +4,7 @@ from benchmarks import (
     bench_control,
     bench_ekf_step,
     bench_links,
+    bench_mission_time,
     bench_mpc,
     bench_plant,
     bench_sim,
@@ -21,5 +22,6 @@ if __name__ == "__main__":
     bench_campaign.main()
     bench_speed.main([])
     bench_sim.main(["--repeat", "1"])
+    bench_mission_time.main(["--repeat", "1"])
     bench_mpc.main([])
     bench_view.main([])
