@@ -25,7 +25,6 @@ slow tick makes the run fall behind, never skips a step).
 from __future__ import annotations
 
 import argparse
-import gc
 import os
 import signal
 import sys
@@ -120,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     from .firmware import Firmware
     from .hal.clocks import LockstepPacedClock
     from .hal.json_sitl import JSONSITLHAL
-    from .hal.scheduler import Task
+    from .hal.scheduler import Task, settle_for_loop
     from .mavlink import MavlinkLink, load_signing_key
     from .params.table import load_params
 
@@ -162,8 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         fw.scheduler.run_tick()
         want_rt = args.realtime == "on" or (args.realtime == "auto" and args.speedup)
         realtime = _try_realtime() if want_rt else "normal scheduling"
-        gc.collect()
-        gc.freeze()
+        settle_for_loop(realtime=bool(args.speedup))
         print(f"wavekeep firmware: ready, {'lockstep' if not args.speedup else f'{args.speedup:g}x real time'}, "
               f"{realtime}{', holding until armed' if args.hold_until_armed else ''}", flush=True)
         if args.hold_until_armed:

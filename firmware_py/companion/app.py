@@ -16,7 +16,6 @@ was refused. See ``docs/companion.md``.
 from __future__ import annotations
 
 import argparse
-import gc
 import json
 import math
 import signal
@@ -214,7 +213,7 @@ def _depth_noise(args, link) -> float | None:
 
 def _run(args, link, stop) -> int:
     from ..firmware import tick_row
-    from ..hal.scheduler import Task
+    from ..hal.scheduler import Task, settle_for_loop
     from .hal_mavlink import AutopilotClock
     fw, commander, clock, rate = _build(args, link, stop)
     rows: list[list[float]] = []
@@ -238,8 +237,7 @@ def _run(args, link, stop) -> int:
     if forecast_link is not None:
         fw.tasks.insert(0, Task("forecast", rate, forecast_link.poll))
     fw.tasks.append(Task("companion", rate, after))
-    gc.collect()
-    gc.freeze()
+    settle_for_loop(realtime=not args.lockstep)     # beside a real autopilot, on its real-time clock
     print("wavekeep companion: ready", flush=True)
     try:
         if not isinstance(clock, AutopilotClock):

@@ -13,7 +13,7 @@ import threading
 from collections.abc import Callable
 
 from firmware_py.hal.clocks import LockstepPacedClock
-from firmware_py.hal.scheduler import Task
+from firmware_py.hal.scheduler import Task, shorten_gil_switch
 from firmware_py.modes import AUTO_AXES, MODE_NAMES
 from firmware_py.params.table import ParameterTable
 
@@ -95,6 +95,7 @@ class LiveSim:
         return self
 
     def _run(self) -> None:
+        shorten_gil_switch()       # paced on the wall clock: the link's thread must not hold the loop up
         if self.realtime:
             try:   # the loop thread only (Linux: pid 0 is the calling thread)
                 os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
