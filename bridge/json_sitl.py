@@ -214,12 +214,21 @@ def _vec(obj: dict[str, Any], key: str, n: int) -> np.ndarray:
     return v
 
 
+def _body_uw(phi: float, theta: float, psi: float, vn: float, ve: float, vd: float) -> tuple[float, float]:
+    """The body FRD u and w (m/s) of the NED velocity under zyx Euler angles (rad): rows 1 and 3 of Rᵀ(Θ) v."""
+    sf, cf, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+    sp, cp = math.sin(psi), math.cos(psi)
+    u = cp * ct * vn + sp * ct * ve - st * vd
+    w = (sp * sf + cp * cf * st) * vn + (st * sp * cf - cp * sf) * ve + ct * cf * vd
+    return u, w
+
+
 def decode_state(line: bytes | str) -> StateReply:
     """The planar state in one JSON SITL reply; ValueError (or KeyError/TypeError) if it is not one.
 
     Uses ``wavekeep.eta`` / ``wavekeep.nu`` when present (exact), else derives
     the planar state from ArduPilot's standard fields: η = [N, D, pitch],
-    [u, w] = the NED velocity rotated into the body by the pitch, q = gyro y.
+    [u, w] = the NED velocity rotated into the body by the attitude, q = gyro y.
     """
     msg = json.loads(line) if _orjson is None else _orjson.loads(line)
     if not isinstance(msg, dict):
@@ -247,9 +256,14 @@ def decode_state(line: bytes | str) -> StateReply:
         if "quaternion" in msg:
             qw, qx, qy, qz = _vec(msg, "quaternion", 4)
             theta = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
+            phi = math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
+            psi = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
         else:
-            theta = float(_vec(msg, "attitude", 3)[1])
-        u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
+            phi, theta, psi = (float(a) for a in _vec(msg, "attitude", 3))
+        if phi == 0.0 and psi == 0.0:       # a planar vehicle: the pitch rotation alone, as a planar world sends
+            u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
+        else:                               # the body's u and w of Rᵀ(Θ) v_NED
+            u, w = _body_uw(phi, theta, psi, float(vel[0]), float(vel[1]), float(vel[2]))
         eta = np.array([pos[0], pos[2], theta])
         nu = np.array([u, w, gyro[1]])
     accel = None

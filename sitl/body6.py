@@ -8,11 +8,11 @@ module evaluates them through the compiled kernels of :mod:`bridge.models.kernel
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from bridge.models import kernels6
+from bridge.models import kernels, kernels6
 from bridge.models.motion6 import rk4_step6, state_derivative6
 from bridge.models.rigid_body6 import RigidBody6Params
 from bridge.models.strip_load6 import BodyFlow6, body_flow6, hydrodynamic_load6, strip_grid
@@ -33,16 +33,19 @@ class Flow6:
 
 @dataclass
 class Body6:
-    """The six-DoF vehicle ``params`` cut into ``n_x`` × ``n_y`` strips (Gauss–Legendre over length × beam)."""
+    """The six-DoF vehicle ``params`` cut into ``n_x`` × ``n_y`` strips (Gauss–Legendre over length × beam);
+    ``compiled`` None follows :data:`bridge.models.kernels.ENABLED` when the body is built."""
 
     params: RigidBody6Params
     n_x: int = 3
     n_y: int = 3
-    compiled: bool = field(default=kernels6.ENABLED)
+    compiled: bool | None = None
 
     def __post_init__(self) -> None:
         if self.n_x < 1 or self.n_y < 1:
             raise ValueError(f"need at least one strip each way, got {self.n_x} × {self.n_y}")
+        if self.compiled is None:
+            self.compiled = bool(kernels.ENABLED)
         p = self.params
         self.strips = strip_grid(p.length, p.beam, self.n_x, self.n_y)
         xs, _ = strip_nodes(p.length, self.n_x)
