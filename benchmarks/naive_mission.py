@@ -4,11 +4,11 @@
 
 What a researcher writes in an afternoon, in plain Python on ``math`` and lists, with no project code and
 no numpy: sea state W3 (Tp 11.1 s, Hs 3.24 m) as 200 JONSWAP components with random phases, deep-water
-linear kinematics at six strips along the body (as the world's plant), the paper's planar BlueROV2 (Table II: surge, heave, pitch,
-added mass, linear and quadratic damping on each strip's relative velocity, the wave's added-mass
-load, restoring), one classical RK4 step per 20 Hz control period, and the authors' cascaded PD (K_p, K_d,
-inner-loop gain, normalised effort clipped to ±1 and scaled by τ_max). No estimator, no thrusters'
-curve or lag, no I/O during the mission. It prints one JSON line: the mission's wall time (s) and its
+linear kinematics at six strips along the body (as the world's plant), the paper's planar BlueROV2
+(Table II: surge, heave, pitch, added mass, linear and quadratic damping on each strip's relative velocity,
+the wave's added-mass load, restoring), one classical RK4 step per 20 Hz control period, and the authors'
+cascaded PD (K_p, K_d, inner-loop gain, normalised effort clipped to ±1 and scaled by τ_max). No estimator, no
+thrusters' curve or lag, no I/O during the mission. It prints one JSON line: the mission's wall time (s) and its
 RMSE, so a run can be checked for a sensible flight.
 
 Its time is the yardstick: machine-independent ratios (``benchmarks/bench_mission_time.py``) say how
