@@ -28,7 +28,9 @@ all four stages.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -264,13 +266,14 @@ class Plant:
         self._update_pressure()
         return self.state
 
-    def _step_planar(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
-        """The planar world's step (the paper's surge, heave, pitch)."""
+    def _integrate(self, x: np.ndarray, f_cmd: np.ndarray, dt: float, wet: float, B: np.ndarray,
+                   flow_at: Callable, rk4: Callable) -> tuple[np.ndarray, float, np.ndarray, Any]:
+        """Integrate x = [η; ν] over dt under the held command: ``substeps`` RK4 steps (``rk4(x, h, τ (3, n), flow)``)
+        with the thrusters' load B f at the stage times and the flow ``flow_at(x, sea times)`` for the pose at each
+        step's start. Returns x, the time reached, the thrusts at its end and the last step's flow."""
         s = self.state
         h = dt / self.substeps
         stage = np.array([0.0, 0.5 * h, h])
-        p = self.vehicle
-        x = np.concatenate([s.eta, s.nu])
         t = s.t
         lags, lag_end = self._motor_lags(dt, stage)
         df = s.thrust - f_cmd
@@ -278,15 +281,24 @@ class Plant:
         flow = None
         for i in range(self.substeps):
             # motor_lag_stages(f_cmd, f₀, t_m, i h + stage): f_cmd + e^{−s/t_m} (f₀ − f_cmd), factors kept
-            tau_thr = (f_cmd + lags[i] * df) @ self.B.T
+            tau_thr = (f_cmd + lags[i] * df) @ B.T
             if wet != 1.0:
                 tau_thr = tau_thr * wet
             if not calm:
-                flow = body_flow(self.sea.components, x[:3], t - self.sea_start + stage, self.strips, self.current_x)
-            x = rk4_step(p, x, h, tau_thr, flow)
+                flow = flow_at(x, t - self.sea_start + stage)
+            x = rk4(x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
-        _check_physical(x[:3], x[3:], s.t, t)
-        f = (f_cmd + lag_end * df)[0]
+        n = x.size // 2
+        _check_physical(x[:n], x[n:], s.t, t)
+        return x, t, (f_cmd + lag_end * df)[0], flow
+
+    def _step_planar(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
+        """The planar world's step (the paper's surge, heave, pitch)."""
+        p, s = self.vehicle, self.state
+        x, t, f, flow = self._integrate(
+            np.concatenate([s.eta, s.nu]), f_cmd, dt, wet, self.B,
+            lambda x, tt: body_flow(self.sea.components, x[:3], tt, self.strips, self.current_x),
+            lambda x, h, tau, flow: rk4_step(p, x, h, tau, flow))
         self.state = PlantState(t, x[:3], x[3:], f, _six(x[:3]), _six(x[3:]))
         tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
         u, w, q = x[3:].tolist()
@@ -298,25 +310,11 @@ class Plant:
     def _step_six(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
         """The six-DoF world's step: the same thrusters and lag through the 6 × 8 wrench matrix, the body in
         all six DoF in the sea from its direction."""
-        s = self.state
-        body = self.body6
+        body, s = self.body6, self.state
         assert body is not None
-        h = dt / self.substeps
-        stage = np.array([0.0, 0.5 * h, h])
-        x = np.concatenate([s.eta6, s.nu6])
-        t = s.t
-        lags, lag_end = self._motor_lags(dt, stage)
-        df = s.thrust - f_cmd
-        calm = self._calm(t)
-        flow = None
-        for i in range(self.substeps):
-            tau_thr = ((f_cmd + lags[i] * df) @ self.B6.T) * wet
-            if not calm:
-                flow = body.flow(self.sea.components, x[:6], t - self.sea_start + stage, self.current_ned)
-            x = body.rk4(x, h, tau_thr, flow)
-            t = s.t + (i + 1) * h
-        _check_physical(x[:6], x[6:], s.t, t)
-        f = (f_cmd + lag_end * df)[0]
+        x, t, f, flow = self._integrate(
+            np.concatenate([s.eta6, s.nu6]), f_cmd, dt, wet, self.B6,
+            lambda x, tt: body.flow(self.sea.components, x[:6], tt, self.current_ned), body.rk4)
         self.state = PlantState.of(t, x[:6], x[6:], f)
         self.tau6 = (self.B6 @ f) * wet
         nu = x[6:]
