@@ -7,7 +7,8 @@ first-order lag (time constant t_m); the body moves under Fossen's equations wit
 water and the fluid's inertia force — Froude–Krylov and added mass, (ρ∇ + M_A)·a, or the paper's M_A·a
 alone when the sea config's ``wave_load`` is ``paper``.
 
-The world's degrees of freedom are the sea config's ``dof`` (:data:`~sitl.sea.DOF_CHOICES`):
+The world's degrees of freedom are the sea config's ``dof`` (:data:`~sitl.sea.DOF_CHOICES`; ``auto``, the
+default, is the planar world for a sea in the vehicle's plane and the six-DoF world otherwise):
 
 * ``six``: all six DoF (:mod:`sitl.body6`: :mod:`bridge.models.motion6` and
   :mod:`bridge.models.strip_load6` on 3 × 3 strips over the length and the beam, compiled), in the
@@ -50,7 +51,7 @@ from bridge.models.vehicle6_config import rigid_body6_from_vehicle
 from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
 
 from .body6 import Body6
-from .sea import DOF_CHOICES, Sea
+from .sea import WORLD_DOFS, Sea
 
 __all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "START_POSES", "Plant", "PlantDiverged", "PlantState"]
 
@@ -143,7 +144,7 @@ class Plant:
 
     @property
     def dof(self) -> str:
-        """The world's degrees of freedom: "six" or "planar" (:data:`~sitl.sea.DOF_CHOICES`)."""
+        """The world's degrees of freedom: "six" or "planar" (:data:`~sitl.sea.WORLD_DOFS`)."""
         return "planar" if self.body6 is None else "six"
 
     @classmethod
@@ -161,8 +162,8 @@ class Plant:
         if not (math.isfinite(sea_start) and sea_start >= 0.0):
             raise ValueError(f"sea_start must be a non-negative number of seconds, got {sea_start}")
         dof = sea.dof if dof is None else dof
-        if dof not in DOF_CHOICES:
-            raise ValueError(f"dof must be one of {', '.join(DOF_CHOICES)}, got {dof!r}")
+        if dof not in WORLD_DOFS:
+            raise ValueError(f"dof must be one of {', '.join(WORLD_DOFS)}, got {dof!r}")
         vcfg = load_vehicle_config(vehicle)
         if true_vehicle:
             vcfg = apply_true_vehicle(vcfg, load_true_vehicle(true_vehicle))

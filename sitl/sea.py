@@ -38,15 +38,28 @@ from .buoy import NO_BUOY_ERRORS, BuoyErrors, WaveBuoy
 from .design_wave import constrained_newwave, newwave
 from .sea_limits import max_hs
 
-DOF_CHOICES = ("planar", "six")
-"""The world's degrees of freedom (the sea config's ``dof``): the paper's plane, or all six."""
-DEFAULT_DOF = "six"
-"""What a sea config without ``dof`` flies (docs/models.md says why)."""
+DOF_CHOICES = ("auto", "planar", "six")
+"""The sea config's ``dof``: the paper's plane, all six DoF, or ``auto``: the plane for a sea in it, six otherwise."""
+DEFAULT_DOF = "auto"
+"""What a sea config without ``dof`` flies (docs/models.md, *The six-DoF plant*, says why)."""
+WORLD_DOFS = ("planar", "six")
+"""The worlds a plant flies (``auto`` resolved by :func:`resolve_dof`)."""
+
+
+def resolve_dof(dof: str, components: WaveComponents, current: tuple[float, float]) -> str:
+    """The world of a sea config's ``dof``: ``auto`` is ``six`` when the sea leaves the vehicle's x–z plane (its
+    components have directions, or the current a cross-plane part) and ``planar`` otherwise."""
+    if dof != "auto":
+        return dof
+    speed, direction = current
+    crossing = speed != 0.0 and float(np.sin(np.radians(direction))) != 0.0
+    return "six" if components.direction is not None or crossing else "planar"
 
 __all__ = [
     "DEFAULT_DOF",
     "DOF_CHOICES",
     "SEA_SCHEMA",
+    "WORLD_DOFS",
     "MeasuredSpectrum",
     "Sea",
     "WaveBuoy",
@@ -56,6 +69,7 @@ __all__ = [
     "jonswap_spectrum",
     "load_sea_config",
     "newwave",
+    "resolve_dof",
 ]
 
 
@@ -214,7 +228,8 @@ SEA_SCHEMA = {
                                "starboard (east): 0 along the vehicle, 90 a beam sea, 180 against it"),
     },
     # The world's degrees of freedom (docs/models.md): "six" = surge, sway, heave, roll, pitch, yaw in the sea from
-    # its direction; "planar" = the paper's surge, heave and pitch in the x–z plane (`wavekeep reproduce` flies it)
+    # its direction; "planar" = the paper's surge, heave and pitch in the x–z plane (`wavekeep reproduce` flies it);
+    # "auto" = planar for a sea in that plane (long-crested along x, no cross current), six otherwise
     "dof": Field("choice", choices=DOF_CHOICES, default=DEFAULT_DOF),
     # The fluid-inertia load the world applies (docs/models.md): "complete" = (ρ∇ + M_A)·a with the pitch
     # coupling (Froude–Krylov + added mass); "paper" = the paper's M_A·a alone, to reproduce its table
@@ -319,7 +334,7 @@ class Sea:
     current: tuple[float, float] = (0.0, 0.0)           # steady current: speed (m/s), direction (deg from +x)
     dynamic_pressure: bool = False                      # the depth sensor sees the waves' dynamic pressure
     wave_load: str = "complete"                         # the world's load model (WAVE_LOAD_MODELS)
-    dof: str = DEFAULT_DOF                              # the world's degrees of freedom (DOF_CHOICES)
+    dof: str = "planar"                                 # the world's degrees of freedom (WORLD_DOFS; auto resolved)
     mean_direction: float = 0.0                         # rad, the waves' (mean) direction of travel from north
 
     @classmethod
@@ -327,7 +342,8 @@ class Sea:
         """Build a sea from a validated sea config; ``seed`` overrides the config's."""
         sp = cfg["spectrum"]
         if sp["type"] == "none":
-            return cls.still_water(cfg["water_depth"], cfg["name"])
+            still = cls.still_water(cfg["water_depth"], cfg["name"])
+            return replace(still, dof="six" if cfg["dof"] == "six" else "planar")
         if sp["type"] == "jonswap":
             hs, tp, gamma = sp["hs"], sp["tp"], sp["gamma"]
             spectrum = lambda w: jonswap_spectrum(w, hs, tp, gamma)  # noqa: E731
@@ -356,9 +372,10 @@ class Sea:
             comps = replace(comps, direction=np.full(comps.n, mean))
         by = cfg["buoy"]
         errors = BuoyErrors(by["noise_snr_db"], by["dropout"], by["clock_offset"], seed)
+        current = (cfg["current"]["speed"], cfg["current"]["direction"])
         return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, by["x"], by["sample_rate"], focus, errors,
-                   (cfg["current"]["speed"], cfg["current"]["direction"]), cfg["depth_sensor"]["dynamic_pressure"],
-                   cfg["wave_load"], cfg.get("dof", DEFAULT_DOF), mean)
+                   current, cfg["depth_sensor"]["dynamic_pressure"], cfg["wave_load"],
+                   resolve_dof(cfg.get("dof", DEFAULT_DOF), comps, current), mean)
 
     @classmethod
     def load(cls, case: str | Path, seed: int | None = None, overrides: Mapping[str, Any] | None = None) -> Sea:

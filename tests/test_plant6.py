@@ -73,7 +73,7 @@ def test_a_head_long_crested_sea_gives_the_planar_world():
 
 def _unpowered(direction: float, seconds: float = 40.0) -> np.ndarray:
     """An unpowered vehicle at 12 m in a long-crested W3 travelling towards ``direction`` (deg): its η (T, 6)."""
-    plant = Plant.from_configs(Sea.load("W3", overrides={"spreading.direction": direction}))
+    plant = Plant.from_configs(Sea.load("W3", overrides={"spreading.direction": direction, "dof": "six"}))
     plant.reset(eta=[0.0, 12.0, 0.0])
     rows = []
     for _ in range(int(seconds * 20)):
@@ -97,7 +97,7 @@ def test_a_full_wrench_through_the_eight_thrusters_reaches_the_plant():
     """A wrench in all six DoF, allocated over the Heavy's eight T200s by the 6 × 8 matrix's pseudo-inverse and
     sent as whole-µs PWM in servo packets: once the motor lag settles the plant's thruster load is that wrench
     (to the PWM's 1 µs quantisation)."""
-    server = PhysicsServer(lambda: Plant.from_configs(Sea.still_water()), port=0)
+    server = PhysicsServer(lambda: Plant.from_configs(Sea.still_water(), dof="six"), port=0)
     try:
         server.handle(servo_packet(20, 0, [1500] * 8), ("127.0.0.1", 9))
         plant = server.plant
@@ -140,11 +140,21 @@ def test_dof_and_direction_are_validated_on_load(tmp_path):
         load_sea_config("W3", {"dof": "five"})
     with pytest.raises(ConfigError, match=r"spreading\.direction.*180"):
         load_sea_config("W3", {"spreading.direction": 200.0})
-    assert load_sea_config("W3")["dof"] == "six" and load_sea_config("W3", {"dof": "planar"})["dof"] == "planar"
+    assert load_sea_config("W3")["dof"] == "auto" and load_sea_config("W3", {"dof": "six"})["dof"] == "six"
+
+
+@pytest.mark.parametrize("overrides, world", [({}, "planar"), ({"spreading.direction": 90.0}, "six"),
+                                               ({"spreading.s": 10.0}, "six"), ({"current.speed": 0.2}, "planar"),
+                                               ({"current.speed": 0.2, "current.direction": 30.0}, "six"),
+                                               ({"dof": "six"}, "six"), ({"dof": "planar", "spreading.s": 10.0},
+                                                                         "planar")])
+def test_auto_is_the_plane_for_a_sea_in_it_and_six_dof_otherwise(overrides, world):
+    sea = Sea.load("W1", overrides=overrides)
+    assert sea.dof == world and Plant.from_configs(sea).dof == world
 
 
 def test_the_divergence_guard_covers_all_six_dof():
-    plant = Plant.from_configs(Sea.still_water())
+    plant = Plant.from_configs(Sea.still_water(), dof="six")
     plant.reset(eta=[0.0, 0.0, 5.0, 0.0, 0.0, 0.0], nu=[0.0, 0.0, 0.0, 25.0, 0.0, 0.0])
     with pytest.raises(PlantDiverged, match=r"p \d+.*20 rad/s"):
         plant.step(NEUTRAL, 0.05)

@@ -173,7 +173,7 @@ def test_in_six_dof_an_unpowered_vehicle_drifts_with_the_whole_current(direction
     """The six-DoF world takes the current as an NED vector: the vehicle drifts north and east with it (sway's
     damping is quadratic only, so the last of the relative sway decays as 1/t: a few mm/s after a minute)."""
     sea = dataclasses.replace(Sea.still_water(), current=(0.3, direction))
-    plant, _ = _drift(sea, seconds=90.0)
+    plant, _ = _drift(sea, seconds=90.0, dof="six")
     rows = []
     for _ in range(200):
         plant.step(NEUTRAL, 0.05)
@@ -198,8 +198,8 @@ def test_zero_current_leaves_the_plant_bit_for_bit():
     _, a = _drift(w1, seconds=5.0, depth=5.0, dof="planar")
     _, b = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0, dof="planar")
     _, c = _drift(dataclasses.replace(w1, current=(0.2, 90.0)), seconds=5.0, depth=5.0, dof="planar")   # cross-plane
-    _, d = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0)   # and the six-DoF world
-    _, e = _drift(w1, seconds=5.0, depth=5.0)
+    _, d = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0, dof="six")   # and six DoF
+    _, e = _drift(w1, seconds=5.0, depth=5.0, dof="six")
     assert np.array_equal(d, e)
     assert np.array_equal(a, b) and np.allclose(a, c, rtol=0, atol=1e-12)
 
