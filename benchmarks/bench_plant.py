@@ -17,6 +17,7 @@ from sitl.sea import Sea, load_sea_config
 def step_cost(components: int, strips: int, repeat: int = 2000) -> dict:
     cfg = load_sea_config("W3")
     cfg["components"] = components
+    cfg["dof"] = "planar"          # strips along the length: the planar world's (the six-DoF one: bench_plant6)
     plant = Plant.from_configs(Sea.from_config(cfg))
     plant.strips = strip_nodes(plant.vehicle.length, strips)
     pwm = np.full(8, 1500.0)

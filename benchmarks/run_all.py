@@ -7,6 +7,7 @@ from benchmarks import (
     bench_mission_time,
     bench_mpc,
     bench_plant,
+    bench_plant6,
     bench_sim,
     bench_speed,
     bench_timing,
@@ -15,6 +16,7 @@ from benchmarks import (
 
 if __name__ == "__main__":
     bench_plant.main()
+    bench_plant6.main()
     bench_control.main()
     bench_links.main()
     bench_timing.main()

@@ -40,16 +40,24 @@ class Forecast:
     second_order: bool = True
     source: str = "oracle"
     seq: int = 0
+    direction: np.ndarray | None = None   # rad, each component's direction of travel from north towards east;
+    #                                       None: all along north (x), the long-crested head sea
+
+    @property
+    def kx(self) -> np.ndarray:
+        """k cos β (rad/m): the wavenumber along north, the phase's x-rate."""
+        return self.k if self.direction is None else self.k * np.cos(self.direction)
 
     def is_valid_at(self, t: float) -> bool:
         return self.valid_from <= t <= self.valid_until
 
     def components(self) -> WaveComponents:
         """Components on the absolute frame (x = 0, t = 0) used by the shared kinematics."""
-        phase = self.phase - self.k * self.x_ref + self.omega * self.time_base
+        phase = self.phase - self.kx * self.x_ref + self.omega * self.time_base
         return WaveComponents(np.asarray(self.amplitude, float), np.asarray(self.omega, float),
                               np.asarray(self.k, float), np.mod(phase, 2.0 * np.pi), float(self.water_depth),
-                              bool(self.second_order))
+                              bool(self.second_order),
+                              None if self.direction is None else np.asarray(self.direction, float))
 
 
 def derive_seeds(seed: int) -> tuple[int, int]:
@@ -73,7 +81,8 @@ def inject_spectral_noise(values: np.ndarray, snr_db: float, rng: np.random.Gene
 def oracle_forecast(truth: WaveComponents, snr_db: float | None, rng: np.random.Generator | None,
                     valid_from: float = 0.0, valid_until: float = float("inf"), seq: int = 0,
                     x_ref: float = 0.0, time_base: float = 0.0) -> Forecast:
-    """A forecast made of the sea's own components, optionally with the paper's error injected.
+    """A forecast made of the sea's own components, optionally with the paper's error injected; in a sea from
+    another direction than north (or a spread one) it carries each component's direction.
 
     With ``snr_db`` set, noise is added to the amplitudes (negative results are
     clipped to zero) and to the phases as drawn in [0, 2π) — the paper's
@@ -86,7 +95,8 @@ def oracle_forecast(truth: WaveComponents, snr_db: float | None, rng: np.random.
         amp = np.maximum(inject_spectral_noise(amp, snr_db, rng), 0.0)
         phase = inject_spectral_noise(phase, snr_db, rng)
     # Refer the phases to (x_ref, time_base): θ = k(x − x_ref) − ω(t − t_b) + φ
-    phase_ref = np.mod(phase + truth.k * x_ref - truth.omega * time_base, 2.0 * np.pi)
+    phase_ref = np.mod(phase + truth.kx * x_ref - truth.omega * time_base, 2.0 * np.pi)
+    direction = None if truth.direction is None else np.asarray(truth.direction, dtype=float).copy()
     return Forecast(amp.copy(), truth.omega.copy(), truth.k.copy(), phase_ref, truth.water_depth, x_ref,
                     time_base, valid_from, valid_until, truth.second_order,
-                    "oracle" if snr_db is None else f"oracle_snr{snr_db:g}db", seq)
+                    "oracle" if snr_db is None else f"oracle_snr{snr_db:g}db", seq, direction)

@@ -1,4 +1,4 @@
-"""Wire encoding of :class:`~bridge.forecast.Forecast`, version 1 (docs/forecast.md).
+"""Wire encoding of :class:`~bridge.forecast.Forecast`, versions 1 and 2 (docs/forecast.md).
 
 A compact, language-neutral binary layout, all little-endian:
 
@@ -6,8 +6,8 @@ A compact, language-neutral binary layout, all little-endian:
 offset   type         field
 =======  ===========  ==========================================================
 0        4 bytes      magic ``b"WKFC"``
-4        u16          schema version (1)
-6        u16          flags: bit 0 = the sender evaluates Stokes 2nd order
+4        u16          schema version (1, or 2 when the components carry their directions)
+6        u16          flags: bit 0 = the sender evaluates Stokes 2nd order; bit 1 = directions follow (v2)
 8        u64          sequence number
 16       u32          N, number of components (1 … 4096)
 20       f64          water depth d (m)
@@ -22,7 +22,11 @@ offset   type         field
 …        N × f64      wavenumber k_i (rad/m)
 …        N × f64      phase φ_i (rad) at (x_ref, t_b)
 …        N × u8       order of each component (1 linear; 2 with its Stokes self-interaction)
+…        N × f64      version 2 with flag bit 1 only: direction of travel β_i (rad, from north towards east)
 =======  ===========  ==========================================================
+
+A forecast without directions (every component along north, the long-crested head sea) is sent as
+version 1, byte for byte what a version-1 sender wrote; one with directions as version 2.
 
 The decoder accepts only this exact length and checks every value; anything
 else raises :class:`ForecastDecodeError` with a reason (the subscriber counts
@@ -42,17 +46,20 @@ __all__ = [
     "MAX_COMPONENTS",
     "MAX_PAYLOAD",
     "VERSION",
+    "VERSIONS",
     "ForecastDecodeError",
     "decode_forecast",
     "encode_forecast",
 ]
 
 MAGIC = b"WKFC"
-VERSION = 1
+VERSION = 2
+VERSIONS = (1, 2)
 MAX_COMPONENTS = 4096
 _HEADER = struct.Struct("<4sHHQIdddddB")
-MAX_PAYLOAD = _HEADER.size + 255 + MAX_COMPONENTS * (4 * 8 + 1)
+MAX_PAYLOAD = _HEADER.size + 255 + MAX_COMPONENTS * (5 * 8 + 1)
 FLAG_SECOND_ORDER = 1
+FLAG_DIRECTION = 2
 
 # Physical plausibility limits a forecast must meet
 MAX_AMPLITUDE_M = 30.0
@@ -69,17 +76,20 @@ class ForecastDecodeError(ValueError):
 
 
 def encode_forecast(f: Forecast) -> bytes:
-    """Forecast → bytes (version 1)."""
+    """Forecast → bytes (version 1, or 2 with the components' directions)."""
     n = int(np.size(f.amplitude))
     if not 1 <= n <= MAX_COMPONENTS:
         raise ValueError(f"a forecast needs 1..{MAX_COMPONENTS} components, got {n}")
     src = f.source.encode("utf-8")[:255]
     order = np.full(n, 2 if f.second_order else 1, dtype="<u1")
-    head = _HEADER.pack(MAGIC, VERSION, FLAG_SECOND_ORDER if f.second_order else 0, int(f.seq), n,
+    directed = f.direction is not None
+    flags = (FLAG_SECOND_ORDER if f.second_order else 0) | (FLAG_DIRECTION if directed else 0)
+    head = _HEADER.pack(MAGIC, 2 if directed else 1, flags, int(f.seq), n,
                         float(f.water_depth), float(f.x_ref), float(f.time_base), float(f.valid_from),
                         float(f.valid_until), len(src))
     arrays = np.concatenate([np.asarray(a, dtype="<f8").ravel() for a in (f.amplitude, f.omega, f.k, f.phase)])
-    return head + src + arrays.tobytes() + order.tobytes()
+    tail = np.asarray(f.direction, dtype="<f8").ravel().tobytes() if directed else b""
+    return head + src + arrays.tobytes() + order.tobytes() + tail
 
 
 def decode_forecast(payload: bytes | bytearray | memoryview) -> Forecast:
@@ -92,11 +102,14 @@ def decode_forecast(payload: bytes | bytearray | memoryview) -> Forecast:
     magic, version, flags, seq, n, d, x_ref, t_b, v0, v1, src_len = _HEADER.unpack_from(b)
     if magic != MAGIC:
         raise ForecastDecodeError("bad_magic", repr(magic))
-    if version != VERSION:
-        raise ForecastDecodeError("bad_version", f"version {version}, this decoder reads {VERSION}")
+    if version not in VERSIONS:
+        raise ForecastDecodeError("bad_version", f"version {version}, this decoder reads {VERSIONS}")
+    directed = bool(flags & FLAG_DIRECTION)
+    if directed != (version == 2):
+        raise ForecastDecodeError("bad_version", f"version {version} with direction flag {int(directed)}")
     if not 1 <= n <= MAX_COMPONENTS:
         raise ForecastDecodeError("bad_count", f"{n} components")
-    expected = _HEADER.size + src_len + n * (4 * 8 + 1)
+    expected = _HEADER.size + src_len + n * (4 * 8 + 1 + (8 if directed else 0))
     if len(b) != expected:
         raise ForecastDecodeError("bad_length", f"{len(b)} bytes, expected {expected} for {n} components")
     try:
@@ -106,6 +119,9 @@ def decode_forecast(payload: bytes | bytearray | memoryview) -> Forecast:
     off = _HEADER.size + src_len
     arr = np.frombuffer(b, dtype="<f8", count=4 * n, offset=off).reshape(4, n)
     order = np.frombuffer(b, dtype="<u1", count=n, offset=off + 32 * n)
+    direction = np.frombuffer(b, dtype="<f8", count=n, offset=off + 33 * n).copy() if directed else None
+    if direction is not None and not np.all(np.isfinite(direction) & (np.abs(direction) <= 4.0 * math.pi)):
+        raise ForecastDecodeError("bad_direction", "directions must be finite, within ±4π rad")
     scalars = (d, x_ref, t_b, v0, v1)
     if not all(math.isfinite(v) for v in scalars[:3]) or math.isnan(v0) or math.isnan(v1):
         raise ForecastDecodeError("non_finite", "depth, reference position, time base or validity")
@@ -137,4 +153,4 @@ def decode_forecast(payload: bytes | bytearray | memoryview) -> Forecast:
     if second != bool(np.all(order == 2)):
         raise ForecastDecodeError("bad_order", "flags and per-component orders disagree")
     return Forecast(amp.copy(), omega.copy(), k.copy(), phase.copy(), float(d), float(x_ref), float(t_b),
-                    float(v0), float(v1), second, source, int(seq))
+                    float(v0), float(v1), second, source, int(seq), direction)

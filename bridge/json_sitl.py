@@ -12,9 +12,9 @@ Servo packet, little endian::
 
 State reply: ``timestamp`` (s), ``imu.gyro`` (rad/s, body), ``imu.accel_body``
 (m/s², specific force, body FRD), ``position`` (NED m), ``velocity`` (NED m/s),
-``attitude`` [roll, pitch, yaw] (rad), plus a ``wavekeep`` object with the
-exact planar state η = [x, z, θ], ν = [u, w, q], the thrusts (N) and the
-frame_count the reply answers.
+``attitude`` [roll, pitch, yaw] (rad) of the whole six-DoF motion, plus a ``wavekeep``
+object with the exact planar state η = [x, z, θ], ν = [u, w, q] (what Wavekeep's planar
+firmware reads), the thrusts (N) and the frame_count the reply answers.
 """
 from __future__ import annotations
 
@@ -126,30 +126,36 @@ def _plain_floats(values) -> list[float]:
 
 def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray, thrust: np.ndarray,
                   g: float, frame_count: int | None = None, pressure_depth: float | None = None,
-                  lateral: tuple[float, ...] | None = None) -> dict[str, Any]:
-    """The JSON SITL state of a planar vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
+                  six: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict[str, Any]:
+    """The JSON SITL state of the vehicle: ArduPilot's fields plus Wavekeep's exact planar state.
 
-    ``imu.accel_body`` is the specific force in body FRD, ν̇ + ω × ν − Rᵀ [0, 0, g]: in the plane
-    [u̇ + q w + g sin θ, 0, ẇ − q u − g cos θ] (≈ [0, 0, −g] at rest).
-    ``velocity`` is J(η)ν in NED. ``pressure_depth`` (m), when the world models the waves' dynamic
-    pressure at the depth sensor, goes in ``wavekeep.pressure_depth``: ArduPilot's protocol has no
-    pressure field (its barometer follows ``position``), so only Wavekeep's HAL reads it.
+    ``eta``, ``nu``, ``nu_dot`` are the planar [x, z, θ], [u, w, q] and [u̇, ẇ, q̇] (what Wavekeep's HAL
+    reads, in ``wavekeep``). ``six``, for a world that moves in all six DoF, is (η, ν, ν̇) with
+    η = [x, y, z, φ, θ, ψ] (NED m, zyx Euler rad), ν = [u, v, w, p, q, r] (body FRD) and ν̇ its rate;
+    ArduPilot's fields are then the whole motion. Without it the vehicle is planar (y, φ, ψ, v, p, r = 0).
 
-    ``lateral``, for a world that also moves out of the plane (``sitl/lateral.py``): ``(y, φ, ψ, v, p, r,
-    v̇, ẏ)`` (east m, roll and yaw rad, sway m/s, roll and yaw rates rad/s, sway acceleration m/s², east
-    velocity m/s). Without it those are all zero: a planar vehicle.
+    ``imu.accel_body`` is the specific force in body FRD, ν̇₁ + ω × ν₁ − Rᵀ [0, 0, g] (≈ [0, 0, −g] at rest);
+    ``velocity`` is R(Θ) ν₁ in NED; ``gyro`` the body rates [p, q, r]. ``pressure_depth`` (m), when the world
+    models the waves' dynamic pressure at the depth sensor, goes in ``wavekeep.pressure_depth``: ArduPilot's
+    protocol has no pressure field (its barometer follows ``position``), so only Wavekeep's HAL reads it.
     """
     x, z, theta = _plain_floats(eta)
     u, w, q = _plain_floats(nu)
-    du, dw = float(nu_dot[0]), float(nu_dot[1])
-    st, ct = math.sin(theta), math.cos(theta)
-    vn, vd = body_to_ned(theta, u, w)
-    if lateral is None:
-        y = phi = psi = v = p = r = dv = ve = 0.0
+    if six is None:
+        du, dw = float(nu_dot[0]), float(nu_dot[1])
+        st, ct = math.sin(theta), math.cos(theta)
+        vn, vd = body_to_ned(theta, u, w)
+        y = phi = psi = v = p = r = ve = 0.0
         accel = [du + q * w + g * st, 0.0, dw - q * u - g * ct]
     else:
-        y, phi, psi, v, p, r, dv, ve = (float(c) for c in lateral)
-        sf, cf = math.sin(phi), math.cos(phi)
+        x, y, z, phi, theta, psi = _plain_floats(six[0])
+        u, v, w, p, q, r = _plain_floats(six[1])
+        du, dv, dw = (float(c) for c in six[2][:3])
+        sf, cf, st, ct, sp, cp = (math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta), math.sin(psi),
+                                  math.cos(psi))
+        vn = cp * ct * u + (cp * st * sf - sp * cf) * v + (sp * sf + cp * cf * st) * w
+        ve = sp * ct * u + (cp * cf + sf * st * sp) * v + (st * sp * cf - cp * sf) * w
+        vd = -st * u + ct * sf * v + ct * cf * w
         accel = [du + q * w - r * v + g * st, dv + r * u - p * w - g * ct * sf, dw + p * v - q * u - g * ct * cf]
     msg: dict[str, Any] = {
         "timestamp": float(t),
@@ -208,12 +214,21 @@ def _vec(obj: dict[str, Any], key: str, n: int) -> np.ndarray:
     return v
 
 
+def _body_uw(phi: float, theta: float, psi: float, vn: float, ve: float, vd: float) -> tuple[float, float]:
+    """The body FRD u and w (m/s) of the NED velocity under zyx Euler angles (rad): rows 1 and 3 of Rᵀ(Θ) v."""
+    sf, cf, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+    sp, cp = math.sin(psi), math.cos(psi)
+    u = cp * ct * vn + sp * ct * ve - st * vd
+    w = (sp * sf + cp * cf * st) * vn + (st * sp * cf - cp * sf) * ve + ct * cf * vd
+    return u, w
+
+
 def decode_state(line: bytes | str) -> StateReply:
     """The planar state in one JSON SITL reply; ValueError (or KeyError/TypeError) if it is not one.
 
     Uses ``wavekeep.eta`` / ``wavekeep.nu`` when present (exact), else derives
     the planar state from ArduPilot's standard fields: η = [N, D, pitch],
-    [u, w] = the NED velocity rotated into the body by the pitch, q = gyro y.
+    [u, w] = the NED velocity rotated into the body by the attitude, q = gyro y.
     """
     msg = json.loads(line) if _orjson is None else _orjson.loads(line)
     if not isinstance(msg, dict):
@@ -241,9 +256,14 @@ def decode_state(line: bytes | str) -> StateReply:
         if "quaternion" in msg:
             qw, qx, qy, qz = _vec(msg, "quaternion", 4)
             theta = math.asin(max(-1.0, min(1.0, 2.0 * (qw * qy - qz * qx))))
+            phi = math.atan2(2.0 * (qw * qx + qy * qz), 1.0 - 2.0 * (qx * qx + qy * qy))
+            psi = math.atan2(2.0 * (qw * qz + qx * qy), 1.0 - 2.0 * (qy * qy + qz * qz))
         else:
-            theta = float(_vec(msg, "attitude", 3)[1])
-        u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
+            phi, theta, psi = (float(a) for a in _vec(msg, "attitude", 3))
+        if phi == 0.0 and psi == 0.0:       # a planar vehicle: the pitch rotation alone, as a planar world sends
+            u, w = ned_to_body(theta, float(vel[0]), float(vel[2]))
+        else:                               # the body's u and w of Rᵀ(Θ) v_NED
+            u, w = _body_uw(phi, theta, psi, float(vel[0]), float(vel[1]), float(vel[2]))
         eta = np.array([pos[0], pos[2], theta])
         nu = np.array([u, w, gyro[1]])
     accel = None

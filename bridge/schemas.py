@@ -56,9 +56,10 @@ VEHICLE_SCHEMA = {
         "Z_ww": Field("float", lo=0.0, hi=1e4),
         "M_qq": Field("float", lo=0.0, hi=1e3),
     },
-    # Sway, roll and yaw: only a plant that serves a six-DoF autopilot uses them (sitl/lateral.py). The defaults
-    # are the BlueROV2 Heavy's (von Benzon et al. 2022, from Wu 2018: the source of Table II's planar values)
+    # Sway, roll and yaw and the beam: the six-DoF world uses them (sitl/plant.py, dof "six"). The defaults are the
+    # BlueROV2 Heavy's (von Benzon et al. 2022, Table A1; configs/vehicle/bluerov2_heavy_6dof.yaml gives the sources)
     "lateral": {
+        "beam": Field("float", lo=0.0, lo_open=True, hi=10.0, default=0.575, doc="body beam (m), spans the strips"),
         "I_x": Field("float", lo=0.0, lo_open=True, hi=1e3, default=0.26, doc="roll inertia (kg m^2)"),
         "I_z": Field("float", lo=0.0, lo_open=True, hi=1e3, default=0.37, doc="yaw inertia (kg m^2)"),
         "Y_vdot": Field("float", lo=0.0, hi=1e3, default=7.12, doc="sway added mass (kg)"),

@@ -29,24 +29,27 @@ def plant_state_message(plant, frame_count: int | None = None) -> dict:
     """The JSON SITL state of a plant (:func:`bridge.json_sitl.state_message`), ν̇ from ``plant.nu_dot``."""
     s = plant.state
     return state_message(s.t, s.eta, s.nu, plant.nu_dot, s.thrust, float(plant.vehicle.g), frame_count,
-                         plant.pressure_depth, plant.lateral_fields())
+                         plant.pressure_depth, plant.six_state())
 
 
 def _snapshot(plant) -> np.ndarray:
-    """Everything a reply holds, as one vector: t, η, ν, ν̇, thrusts, pressure depth (NaN: none), lateral."""
+    """Everything a reply holds, as one vector: t, η, ν, ν̇, thrusts, pressure depth (NaN: none), and a six-DoF
+    world's η, ν, ν̇ (six each)."""
     s = plant.state
     pd = math.nan if plant.pressure_depth is None else plant.pressure_depth
-    lat = plant.lateral_fields() or ()
-    return np.array([s.t, *s.eta, *s.nu, *plant.nu_dot, *s.thrust, pd, *lat], dtype=float)
+    six = plant.six_state()
+    return np.array([s.t, *s.eta, *s.nu, *plant.nu_dot, *s.thrust, pd, *(np.concatenate(six) if six else ())],
+                    dtype=float)
 
 
 def _message(v: np.ndarray, n_thrust: int, g: float, frame_count: int) -> dict:
     """The state message of a :func:`_snapshot` vector."""
     k = 10 + n_thrust
     pd = float(v[k])
-    lateral = tuple(v[k + 1:].tolist()) or None
+    rest = v[k + 1:]
+    six = (rest[:6], rest[6:12], rest[12:18]) if rest.size else None
     return state_message(float(v[0]), v[1:4], v[4:7], v[7:10], v[10:k], g, frame_count,
-                         None if math.isnan(pd) else pd, lateral)
+                         None if math.isnan(pd) else pd, six)
 
 
 class PhysicsHold:

@@ -258,7 +258,7 @@ class PhysicsServer:
 TRUTH_COLUMNS = ("t", "x", "z", "theta", "u", "w", "q", "tauE_X", "tauE_Z", "tauE_M", "wall_s",
                  "tau_X", "tau_Z", "tau_M", "y", "phi", "psi")
 """``wavekeep plant --log``'s columns: plant time (s), η, ν, the wave load, the wall clock (s, monotonic), the
-thrusters' wrench [X, Z, M] (N, N m) and, with ``--six-dof``, east (m), roll and yaw (rad; else 0)."""
+thrusters' wrench [X, Z, M] (N, N m) and east (m), roll and yaw (rad; 0 in a planar world)."""
 
 
 class _RecordingPlant:
@@ -274,7 +274,8 @@ class _RecordingPlant:
     def _record(self) -> None:
         s = self._plant.state
         if self._rows is not None and self._on_log_grid(s.t):
-            lat = self._plant.lateral.state[:3].tolist() if self._plant.lateral is not None else [0.0] * 3
+            eta6 = self._plant.state.eta6
+            lat = [float(eta6[1]), float(eta6[3]), float(eta6[5])]
             # wall_s: when the plant was asked for this state — an outside observer of the firmware's timing
             self._rows.append([s.t, *s.eta, *s.nu, *self._plant.tau_E, time.monotonic(), *self._plant.tau, *lat])
         if self._buoy is not None:
@@ -318,7 +319,8 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--sea-start", type=float, default=0.0, metavar="S",
                     help="still water until S s of plant time, then the sea from its t = 0 (time to boot and dive)")
     ap.add_argument("--six-dof", action="store_true",
-                    help="move in sway, roll and yaw too (an autopilot that holds heading and position, as ArduSub)")
+                    help="the six-DoF world whatever the sea config's dof (an autopilot that holds heading and "
+                         "position, as ArduSub)")
     ap.add_argument("--physics-rate", type=float, default=None, metavar="HZ",
                     help="step the plant at this rate when the autopilot's frames come faster (ArduSub: 1200 Hz); "
                          "default: once per frame")
@@ -353,7 +355,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         def factory():
             plant = Plant.from_configs(sea, args.vehicle, args.mission, args.true_vehicle, args.start,
-                                       args.sea_start, args.six_dof)
+                                       args.sea_start, "six" if args.six_dof else None)
             if not (args.log or buoy):
                 return plant
             rows.clear()

@@ -1,13 +1,23 @@
-"""The simulated BlueROV2 Heavy: Fossen 3-DoF body, eight T200 thrusters, wave loads, RK4.
+"""The simulated BlueROV2 Heavy: Fossen's rigid body, eight T200 thrusters, wave loads, RK4.
 
-State: NED pose η = [x, z, θ], body velocities ν = [u, w, q] and the eight
-thrusters' actual thrusts f (N). The thrusters follow their PWM
-command through the T200 curve with a first-order lag (time constant t_m); the
-body moves under paper Eq. 2 with τ = B_μ f, its damping and added-mass
-Coriolis forces taken on the velocity relative to the water and the fluid's
-inertia force — Froude–Krylov and added mass, (ρ∇ + M_A)·a, or the paper's
-M_A·a alone when the sea config's ``wave_load`` is ``paper`` (see
-:func:`~bridge.models.vehicle.hydrodynamic_load`).
+State: NED pose η = [x, y, z, φ, θ, ψ], body velocities ν = [u, v, w, p, q, r] and the eight
+thrusters' actual thrusts f (N). The thrusters follow their PWM command through the T200 curve with a
+first-order lag (time constant t_m); the body moves under Fossen's equations with τ = B f (the layout's
+6 × 8 wrench matrix), its damping and added-mass Coriolis forces taken on the velocity relative to the
+water and the fluid's inertia force — Froude–Krylov and added mass, (ρ∇ + M_A)·a, or the paper's M_A·a
+alone when the sea config's ``wave_load`` is ``paper``.
+
+The world's degrees of freedom are the sea config's ``dof`` (:data:`~sitl.sea.DOF_CHOICES`; ``auto``, the
+default, is the planar world for a sea in the vehicle's plane and the six-DoF world otherwise):
+
+* ``six``: all six DoF (:mod:`sitl.body6`: :mod:`bridge.models.motion6` and
+  :mod:`bridge.models.strip_load6` on 3 × 3 strips over the length and the beam, compiled), in the
+  sea from its direction;
+* ``planar``: the paper's surge, heave and pitch (:mod:`bridge.models.vehicle`), y, φ, ψ, v, p, r held
+  at zero and the sea's x–z share felt.
+
+:attr:`PlantState.eta` and :attr:`PlantState.nu` are the planar part [x, z, θ], [u, w, q] in both, which
+is what the planar firmware reads; ``eta6`` and ``nu6`` the whole state.
 
 Each control period is integrated with ``substeps`` classical RK4 steps; the
 motor lag is solved exactly over the period (the PWM is held constant). The
@@ -19,10 +29,13 @@ all four stages.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
+from bridge.models.motion6 import PLANAR_DOFS
 from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
@@ -34,15 +47,20 @@ from bridge.models.vehicle import (
     submerged_fraction,
     wave_load,
 )
+from bridge.models.vehicle6_config import rigid_body6_from_vehicle
 from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
 
-from .lateral import LateralModel, LateralParams
-from .sea import Sea
+from .body6 import Body6
+from .sea import WORLD_DOFS, Sea
 
 __all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "START_POSES", "Plant", "PlantDiverged", "PlantState"]
 
-MAX_BODY_SPEED = 20.0   # m/s: |u|, |w| beyond this is no ROV in any sea the schema admits (they stay below 8)
-MAX_BODY_RATE = 20.0    # rad/s: |q| likewise (about 1150 °/s)
+MAX_BODY_SPEED = 20.0   # m/s: |u|, |v|, |w| beyond this is no ROV in any sea the schema admits (they stay below 8)
+MAX_BODY_RATE = 20.0    # rad/s: |p|, |q|, |r| likewise (about 1150 °/s)
+STRIPS_ACROSS = 3
+"""Gauss–Legendre strips across the beam in the six-DoF world (the mission's ``plant.strips`` along the length):
+3 × 3 give every DoF's load within 1e-3 of its rms against 12 × 12 (docs/models.md)."""
+_P = np.array(PLANAR_DOFS)
 
 
 class PlantDiverged(RuntimeError):
@@ -55,24 +73,47 @@ START_POSES = ("station", "surface")
 until its thrusters first run: where a foreign autopilot boots and zeroes its depth (docs/json_sitl.md)."""
 
 
+def _six(v) -> np.ndarray:
+    """A pose or velocity as six DoF: a planar [x, z, θ] (or [u, w, q]) placed at (0, 2, 4)."""
+    v = np.asarray(v, dtype=float)
+    if v.shape == (6,):
+        return v.copy()
+    if v.shape != (3,):
+        raise ValueError(f"expected a planar (3) or six-DoF (6) vector, got shape {v.shape}")
+    out = np.zeros(6)
+    out[_P] = v
+    return out
+
+
 @dataclass
 class PlantState:
-    """Truth state of the simulated vehicle."""
+    """Truth state of the simulated vehicle: the whole six-DoF motion and its planar part."""
 
     t: float = 0.0                                                     # s
     eta: np.ndarray = field(default_factory=lambda: np.zeros(3))       # [x (m), z depth (m), θ (rad)]
     nu: np.ndarray = field(default_factory=lambda: np.zeros(3))        # [u, w (m/s), q (rad/s)] body
     thrust: np.ndarray = field(default_factory=lambda: np.zeros(8))    # actual thrust per thruster (N)
+    eta6: np.ndarray = field(default_factory=lambda: np.zeros(6))      # [x, y, z (m, NED), φ, θ, ψ (rad)]
+    nu6: np.ndarray = field(default_factory=lambda: np.zeros(6))       # [u, v, w (m/s), p, q, r (rad/s)] body
+
+    @classmethod
+    def of(cls, t: float, eta6: np.ndarray, nu6: np.ndarray, thrust: np.ndarray) -> PlantState:
+        """The state of a six-DoF pose and velocity, with its planar part."""
+        return cls(float(t), eta6[_P], nu6[_P], thrust, eta6, nu6)
 
     def copy(self) -> PlantState:
-        return PlantState(self.t, self.eta.copy(), self.nu.copy(), self.thrust.copy())
+        return PlantState(self.t, self.eta.copy(), self.nu.copy(), self.thrust.copy(), self.eta6.copy(),
+                          self.nu6.copy())
 
 
 class Plant:
-    """The vehicle in the sea, advanced one control period at a time by :meth:`step`."""
+    """The vehicle in the sea, advanced one control period at a time by :meth:`step`.
+
+    ``body6`` is the six-DoF body (the sea's ``dof`` "six"), or None for the planar world; ``vehicle`` is the
+    planar model either way (its parameters are the six-DoF body's vertical-plane limit)."""
 
     def __init__(self, vehicle: VehicleParams, sea: Sea, layout: ThrusterLayout, curve: T200Curve,
-                 motor_time_constant: float, substeps: int = 1, strips: int = 6):
+                 motor_time_constant: float, substeps: int = 1, strips: int = 6, body6: Body6 | None = None):
         if substeps < 1 or strips < 1:
             raise ValueError("substeps and strips must be >= 1")
         self.vehicle = vehicle.with_wave_load(sea.wave_load)   # the world's load model is the sea config's
@@ -82,44 +123,60 @@ class Plant:
         self.t_m = float(motor_time_constant)
         self.substeps = int(substeps)
         self.strips = strip_nodes(vehicle.length, strips)
+        self.body6 = body6
+        self.B6 = layout.wrench_matrix()     # 6×8: thrusts → [X, Y, Z, K, M, N]
         self.B = layout.allocation_matrix()  # 3×8: thrusts → [X, Z, M]
         self.state = PlantState()
-        self.tau_E = np.zeros(3)        # wave load at the end of the last step
-        self.tau = np.zeros(3)          # thruster load at the end of the last step
-        self.nu_dot = np.zeros(3)       # body acceleration at the end of the last step
-        self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north)
+        self.tau_E6 = np.zeros(6)       # wave load at the end of the last step (six DoF; planar world: X, Z, M)
+        self.tau6 = np.zeros(6)         # thruster load at the end of the last step
+        self.nu_dot6 = np.zeros(6)      # body acceleration at the end of the last step
+        self.tau_E = np.zeros(3)        # ... their planar parts [X, Z, M], [u̇, ẇ, q̇]
+        self.tau = np.zeros(3)
+        self.nu_dot = np.zeros(3)
+        self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north): the planar world's
+        self.current_ned = sea.current_ned   # and as an NED vector (m/s): the six-DoF world's
         self.pressure_depth: float | None = None   # what a pressure sensor reads (m), with the sea's option
         self.sea_start = 0.0            # s of plant time at which the sea (waves, current) begins at its t = 0
         self.moored = False             # held at rest where it is until a thruster first gives thrust
-        self.lateral: LateralModel | None = None   # sway, roll and yaw (a six-DoF autopilot's world)
         self._lag_key: float | None = None          # the dt the motor-lag factors below were computed for
         self._lags: list[np.ndarray] = []          # per substep: e^{−s/t_m} at its stage times (3, 1)
         self._lag_end = np.ones(1)                  # e^{−dt/t_m} (1, 1)
 
+    @property
+    def dof(self) -> str:
+        """The world's degrees of freedom: "six" or "planar" (:data:`~sitl.sea.WORLD_DOFS`)."""
+        return "planar" if self.body6 is None else "six"
+
     @classmethod
     def from_configs(cls, sea: Sea, vehicle: str = "bluerov2_heavy", mission: str = "station_keeping",
                      true_vehicle: str | None = None, start: str = "station", sea_start: float = 0.0,
-                     six_dof: bool = False) -> Plant:
+                     dof: str | None = None) -> Plant:
         """The plant of the vehicle and mission configs; ``true_vehicle`` names a plant-only override
         (``configs/vehicle/true/``) that scales the vehicle's coefficients: the firmware keeps the nominal ones.
+        ``dof`` overrides the sea config's (``six`` for an autopilot that flies all six DoF).
 
-        For a foreign autopilot (docs/json_sitl.md): ``start`` "surface" (:data:`START_POSES`), the sea
-        still until ``sea_start`` s, and ``six_dof`` for sway, roll and yaw (:mod:`sitl.lateral`)."""
+        For a foreign autopilot (docs/json_sitl.md): ``start`` "surface" (:data:`START_POSES`) and the sea
+        still until ``sea_start`` s."""
         if start not in START_POSES:
             raise ValueError(f"start must be one of {', '.join(START_POSES)}, got {start!r}")
         if not (math.isfinite(sea_start) and sea_start >= 0.0):
             raise ValueError(f"sea_start must be a non-negative number of seconds, got {sea_start}")
+        dof = sea.dof if dof is None else dof
+        if dof not in WORLD_DOFS:
+            raise ValueError(f"dof must be one of {', '.join(WORLD_DOFS)}, got {dof!r}")
         vcfg = load_vehicle_config(vehicle)
         if true_vehicle:
             vcfg = apply_true_vehicle(vcfg, load_true_vehicle(true_vehicle))
         mcfg = load_mission_config(mission)
         layout = ThrusterLayout.from_config(vcfg["thrusters"])
         params = VehicleParams.from_config(vcfg)
+        body6 = None
+        if dof == "six":
+            rb = replace(rigid_body6_from_vehicle(vcfg), wave_load_model=sea.wave_load, g=params.g)
+            body6 = Body6(rb, mcfg["plant"]["strips"], STRIPS_ACROSS)
         plant = cls(params, sea, layout, T200Curve.from_config(vcfg["thrusters"]), vcfg["thrusters"]["time_constant"],
-                    mcfg["plant"]["substeps"], mcfg["plant"]["strips"])
+                    mcfg["plant"]["substeps"], mcfg["plant"]["strips"], body6)
         plant.sea_start = float(sea_start)
-        if six_dof:
-            plant.lateral = LateralModel(LateralParams.from_config(vcfg, params.g), layout.wrench_matrix()[[1, 3, 5]])
         sp = mcfg["setpoint"]
         if start == "surface":
             plant.reset(eta=np.array([sp["x"], 0.0, sp["pitch"]]))
@@ -129,14 +186,17 @@ class Plant:
         return plant
 
     def reset(self, eta=None, nu=None, t: float = 0.0) -> None:
-        """Place the vehicle at pose η with velocity ν at time t, thrusters idle."""
-        self.state = PlantState(float(t), np.zeros(3) if eta is None else np.array(eta, dtype=float),
-                                np.zeros(3) if nu is None else np.array(nu, dtype=float), np.zeros(8))
-        self.tau_E = self.wave_load(self.state.eta, self.state.nu, self.state.t)
-        self.tau = np.zeros(3)
-        self.nu_dot = np.zeros(3)
-        if self.lateral is not None:
-            self.lateral.reset()
+        """Place the vehicle at pose η with velocity ν at time t, thrusters idle: η, ν planar ([x, z, θ],
+        [u, w, q]; the other DoF zero) or six-DoF ([x, y, z, φ, θ, ψ], [u, v, w, p, q, r])."""
+        eta6 = np.zeros(6) if eta is None else _six(eta)
+        nu6 = np.zeros(6) if nu is None else _six(nu)
+        if self.body6 is None and (eta6[[1, 3, 5]].any() or nu6[[1, 3, 5]].any()):
+            raise ValueError("the planar world has no sway, roll or yaw: give a planar pose and velocity")
+        self.state = PlantState.of(float(t), eta6, nu6, np.zeros(8))
+        self.tau_E6 = self.wave_load(eta6, nu6, self.state.t) if self.body6 is not None else \
+            _six(self.wave_load(self.state.eta, self.state.nu, self.state.t))
+        self.tau_E = self.tau_E6[_P]
+        self.tau6, self.tau, self.nu_dot6, self.nu_dot = np.zeros(6), np.zeros(3), np.zeros(6), np.zeros(3)
         self._update_pressure()
 
     def _calm(self, t: float) -> bool:
@@ -148,20 +208,33 @@ class Plant:
         sea's ``depth_sensor.dynamic_pressure`` is on; None (the sensor reads the true depth) otherwise."""
         if self.sea.dynamic_pressure:
             s = self.state
-            head = 0.0 if self._calm(s.t) else self.sea.pressure_head(s.eta[0], s.eta[1], s.t - self.sea_start)
-            self.pressure_depth = float(s.eta[1] + head)
+            x, y, z = s.eta6[:3].tolist()
+            head = 0.0 if self._calm(s.t) else self.sea.pressure_head(x, z, s.t - self.sea_start, y)
+            self.pressure_depth = float(z + head)
 
     def wave_load(self, eta, nu, t) -> np.ndarray:
         """τ_E (relative-velocity form, the sea's load model) on the body at pose η moving with ν, at plant time t
-        (s, or an array of T times: the result is then (T, 3)); zero while the sea is still (before
-        :attr:`sea_start`)."""
+        (s, or an array of T times: the result is then (T, n)); zero while the sea is still (before
+        :attr:`sea_start`). Planar η, ν give [X, Z, M] from the planar model; six-DoF ones (the six-DoF
+        world) [X, Y, Z, K, M, N] from the six-DoF body."""
+        six = np.shape(eta) == (6,)
+        if six and self.body6 is None:
+            raise ValueError("a six-DoF pose needs the six-DoF world (the sea config's dof: six)")
+        n = 6 if six else 3
         if np.ndim(t) == 0 and self._calm(float(t)):
-            return np.zeros(3)
-        tau = wave_load(self.vehicle, self.sea.components, eta, nu, np.asarray(t, dtype=float) - self.sea_start,
-                        self.strips, self.current_x)
-        if np.ndim(t) == 0:
-            return tau
-        return np.where((np.asarray(t) < self.sea_start)[:, None], 0.0, tau)
+            return np.zeros(n)
+        tt = np.atleast_1d(np.asarray(t, dtype=float))
+        if six:
+            assert self.body6 is not None
+            eta6, nu6 = np.asarray(eta, dtype=float), np.asarray(nu, dtype=float)
+            flow = self.body6.flow(self.sea.components, eta6, tt - self.sea_start, self.current_ned)
+            still = self.body6.load(nu6, None)
+            tau = np.array([self.body6.load(nu6, flow, i) - still for i in range(tt.size)])
+        else:
+            tau = wave_load(self.vehicle, self.sea.components, eta, nu, tt - self.sea_start, self.strips,
+                            self.current_x)
+        tau = np.where((tt < self.sea_start)[:, None], 0.0, np.reshape(tau, (tt.size, n)))
+        return tau if np.ndim(t) else tau[0]
 
     def step(self, pwm, dt: float) -> PlantState:
         """Hold the eight PWM commands (µs) for dt seconds and advance the world.
@@ -183,41 +256,71 @@ class Plant:
         s = self.state
         if self.moored:
             if not f_cmd.any():     # held where it is (at the surface) until a thruster runs
-                self.state = PlantState(s.t + dt, s.eta, s.nu, s.thrust)
+                self.state = PlantState(s.t + dt, s.eta, s.nu, s.thrust, s.eta6, s.nu6)
                 return self.state
             self.moored = False
+        # A thruster out of the water pushes nothing: near the surface the thrust fades as the buoyancy does
+        z = float(s.eta6[2])
+        wet = 1.0 if z >= 0.5 * self.vehicle.height else submerged_fraction(self.vehicle, z)
+        (self._step_planar if self.body6 is None else self._step_six)(f_cmd, dt, wet)
+        self.tau_E, self.tau, self.nu_dot = self.tau_E6[_P], self.tau6[_P], self.nu_dot6[_P]
+        self._update_pressure()
+        return self.state
+
+    def _integrate(self, x: np.ndarray, f_cmd: np.ndarray, dt: float, wet: float, B: np.ndarray,
+                   flow_at: Callable, rk4: Callable) -> tuple[np.ndarray, float, np.ndarray, Any]:
+        """Integrate x = [η; ν] over dt under the held command: ``substeps`` RK4 steps (``rk4(x, h, τ (3, n), flow)``)
+        with the thrusters' load B f at the stage times and the flow ``flow_at(x, sea times)`` for the pose at each
+        step's start. Returns x, the time reached, the thrusts at its end and the last step's flow."""
+        s = self.state
         h = dt / self.substeps
         stage = np.array([0.0, 0.5 * h, h])
-        p = self.vehicle
-        x = np.concatenate([s.eta, s.nu])
         t = s.t
         lags, lag_end = self._motor_lags(dt, stage)
         df = s.thrust - f_cmd
         calm = self._calm(t)
         flow = None
-        # A thruster out of the water pushes nothing: near the surface the thrust fades as the buoyancy does
-        wet = 1.0 if s.eta[1] >= 0.5 * p.height else submerged_fraction(p, float(s.eta[1]))
         for i in range(self.substeps):
             # motor_lag_stages(f_cmd, f₀, t_m, i h + stage): f_cmd + e^{−s/t_m} (f₀ − f_cmd), factors kept
-            tau_thr = (f_cmd + lags[i] * df) @ self.B.T
+            tau_thr = (f_cmd + lags[i] * df) @ B.T
             if wet != 1.0:
                 tau_thr = tau_thr * wet
             if not calm:
-                flow = body_flow(self.sea.components, x[:3], t - self.sea_start + stage, self.strips, self.current_x)
-            x = rk4_step(p, x, h, tau_thr, flow)
+                flow = flow_at(x, t - self.sea_start + stage)
+            x = rk4(x, h, tau_thr, flow)
             t = s.t + (i + 1) * h
-        _check_physical(x, s.t, t)
-        f = (f_cmd + lag_end * df)[0]
-        if self.lateral is not None:
-            self.lateral.step((float(x[2]), float(x[3]), float(x[4]), float(x[5])), s.thrust * wet, f * wet, dt)
-        self.state = PlantState(t, x[:3], x[3:], f)
-        self.tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
+        n = x.size // 2
+        _check_physical(x[:n], x[n:], s.t, t)
+        return x, t, (f_cmd + lag_end * df)[0], flow
+
+    def _step_planar(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
+        """The planar world's step (the paper's surge, heave, pitch)."""
+        p, s = self.vehicle, self.state
+        x, t, f, flow = self._integrate(
+            np.concatenate([s.eta, s.nu]), f_cmd, dt, wet, self.B,
+            lambda x, tt: body_flow(self.sea.components, x[:3], tt, self.strips, self.current_x),
+            lambda x, h, tau, flow: rk4_step(p, x, h, tau, flow))
+        self.state = PlantState(t, x[:3], x[3:], f, _six(x[:3]), _six(x[3:]))
+        tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
         u, w, q = x[3:].tolist()
         in_flow, still = hydrodynamic_load_terms(p, u, w, q, flow, 2), hydrodynamic_load_terms(p, u, w, q, None)
-        self.tau_E = np.array([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
-        self.nu_dot = state_rates_at(p, x, self.tau, flow, 2)[3:]
-        self._update_pressure()
-        return self.state
+        self.tau_E6 = _six([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
+        self.tau6 = _six(tau)
+        self.nu_dot6 = _six(state_rates_at(p, x, tau, flow, 2)[3:])
+
+    def _step_six(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
+        """The six-DoF world's step: the same thrusters and lag through the 6 × 8 wrench matrix, the body in
+        all six DoF in the sea from its direction."""
+        body, s = self.body6, self.state
+        assert body is not None
+        x, t, f, flow = self._integrate(
+            np.concatenate([s.eta6, s.nu6]), f_cmd, dt, wet, self.B6,
+            lambda x, tt: body.flow(self.sea.components, x[:6], tt, self.current_ned), body.rk4)
+        self.state = PlantState.of(t, x[:6], x[6:], f)
+        self.tau6 = (self.B6 @ f) * wet
+        nu = x[6:]
+        self.tau_E6 = body.load(nu, flow, 2) - body.load(nu, None)
+        self.nu_dot6 = body.rates(x, self.tau6, flow, 2)[6:]
 
     def _motor_lags(self, dt: float, stage: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """The motor-lag factors e^{−s/t_m} of :func:`motor_lag_stages` at each substep's stage times and at
@@ -229,28 +332,29 @@ class Plant:
             self._lag_key = dt
         return self._lags, self._lag_end
 
-    def lateral_fields(self) -> tuple[float, ...] | None:
-        """The out-of-plane motion for the JSON state (:func:`bridge.json_sitl.state_message`'s ``lateral``):
-        (y, φ, ψ, v, p, r, v̇, ẏ), or None for a planar world."""
-        if self.lateral is None:
+    def six_state(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(η, ν, ν̇) of the six-DoF world for the JSON state (:func:`bridge.json_sitl.state_message`'s ``six``),
+        or None for the planar world (whose other DoF are zero)."""
+        if self.body6 is None:
             return None
-        y, phi, psi, v, p, r = self.lateral.state.tolist()
-        rates = self.lateral.rates
-        return (y, phi, psi, v, p, r, float(rates[3]), float(rates[0]))
+        return self.state.eta6, self.state.nu6, self.nu_dot6
 
     def power_per_dof(self) -> np.ndarray:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""
         return power_per_dof(self.tau)
 
 
-
-def _check_physical(x: np.ndarray, t0: float, t1: float) -> None:
-    """:class:`PlantDiverged` if the state [η, ν] reached at ``t1`` (s) from ``t0`` is not a vehicle's."""
-    xs, z, th, u, w, q = x.tolist()
+def _check_physical(eta: np.ndarray, nu: np.ndarray, t0: float, t1: float) -> None:
+    """:class:`PlantDiverged` if the pose η and body velocity ν (planar or six-DoF) reached at ``t1`` (s) from ``t0``
+    are not a vehicle's: non-finite, or a speed beyond :data:`MAX_BODY_SPEED` or a rate beyond :data:`MAX_BODY_RATE`."""
+    n = nu.size // 2
+    speeds, rates = nu[:n].tolist(), nu[n:].tolist()
     # NaN fails every comparison, so a non-finite velocity is caught with the large ones
-    if not (abs(u) <= MAX_BODY_SPEED and abs(w) <= MAX_BODY_SPEED and abs(q) <= MAX_BODY_RATE
-            and math.isfinite(xs + z + th)):
-        raise PlantDiverged(
-            f"the simulation diverged between t = {t0:.2f} s and {t1:.2f} s: u {x[3]:.3g} m/s, w {x[4]:.3g} m/s, "
-            f"q {x[5]:.3g} rad/s (limits {MAX_BODY_SPEED:g} m/s, {MAX_BODY_RATE:g} rad/s); the state before it "
-            "is kept")
+    if all(abs(v) <= MAX_BODY_SPEED for v in speeds) and all(abs(v) <= MAX_BODY_RATE for v in rates) \
+            and math.isfinite(float(np.sum(eta))):
+        return
+    names = ("u", "w", "q") if n == 1 else ("u", "v", "w", "p", "q", "r")
+    values = ", ".join(f"{k} {v:.3g}" for k, v in zip(names, nu.tolist(), strict=True))
+    raise PlantDiverged(
+        f"the simulation diverged between t = {t0:.2f} s and {t1:.2f} s: {values} (limits {MAX_BODY_SPEED:g} m/s, "
+        f"{MAX_BODY_RATE:g} rad/s); the state before it is kept")

@@ -27,6 +27,7 @@ from bridge.models.waves import (
     G,
     WaveComponents,
     elevation,
+    elevation_xy,
     particle_acceleration,
     particle_kinematics,
     particle_velocity,
@@ -34,10 +35,31 @@ from bridge.models.waves import (
 )
 
 from .buoy import NO_BUOY_ERRORS, BuoyErrors, WaveBuoy
+from .design_wave import constrained_newwave, newwave
 from .sea_limits import max_hs
 
+DOF_CHOICES = ("auto", "planar", "six")
+"""The sea config's ``dof``: the paper's plane, all six DoF, or ``auto``: the plane for a sea in it, six otherwise."""
+DEFAULT_DOF = "auto"
+"""What a sea config without ``dof`` flies (docs/models.md, *The six-DoF plant*, says why)."""
+WORLD_DOFS = ("planar", "six")
+"""The worlds a plant flies (``auto`` resolved by :func:`resolve_dof`)."""
+
+
+def resolve_dof(dof: str, components: WaveComponents, current: tuple[float, float]) -> str:
+    """The world of a sea config's ``dof``: ``auto`` is ``six`` when the sea leaves the vehicle's x–z plane (its
+    components have directions, or the current a cross-plane part) and ``planar`` otherwise."""
+    if dof != "auto":
+        return dof
+    speed, direction = current
+    crossing = speed != 0.0 and float(np.sin(np.radians(direction))) != 0.0
+    return "six" if components.direction is not None or crossing else "planar"
+
 __all__ = [
+    "DEFAULT_DOF",
+    "DOF_CHOICES",
     "SEA_SCHEMA",
+    "WORLD_DOFS",
     "MeasuredSpectrum",
     "Sea",
     "WaveBuoy",
@@ -47,6 +69,7 @@ __all__ = [
     "jonswap_spectrum",
     "load_sea_config",
     "newwave",
+    "resolve_dof",
 ]
 
 
@@ -194,14 +217,20 @@ SEA_SCHEMA = {
     "current": {
         "speed": Field("float", lo=0.0, hi=3.0, default=0.0, doc="m/s"),
         "direction": Field("float", lo=-180.0, hi=180.0, default=0.0,
-                           doc="deg, towards which it flows, from the wave direction (+x, buoy to vehicle)"),
+                           doc="deg, towards which it flows, from north (+x, the vehicle's heading) towards east"),
     },
-    # A short-crested sea: cos-2s spreading about a mean direction (docs/sea-errors.md); absent s = long-crested
+    # The waves' direction (docs/sea-errors.md): the mean direction of travel of a short-crested sea (cos-2s
+    # spreading, exponent s) or, with s absent, the direction of a long-crested one
     "spreading": {
-        "s": Field("float", lo=0.5, hi=200.0, required=False, doc="cos-2s spreading exponent"),
-        "direction": Field("float", lo=-90.0, hi=90.0, default=0.0,
-                           doc="deg, mean direction of travel from the buoy-vehicle line (+x)"),
+        "s": Field("float", lo=0.5, hi=200.0, required=False, doc="cos-2s spreading exponent; absent: long-crested"),
+        "direction": Field("float", lo=-180.0, hi=180.0, default=0.0,
+                           doc="deg, (mean) direction of travel from the vehicle's heading (north, +x) towards "
+                               "starboard (east): 0 along the vehicle, 90 a beam sea, 180 against it"),
     },
+    # The world's degrees of freedom (docs/models.md): "six" = surge, sway, heave, roll, pitch, yaw in the sea from
+    # its direction; "planar" = the paper's surge, heave and pitch in the x–z plane (`wavekeep reproduce` flies it);
+    # "auto" = planar for a sea in that plane (long-crested along x, no cross current), six otherwise
+    "dof": Field("choice", choices=DOF_CHOICES, default=DEFAULT_DOF),
     # The fluid-inertia load the world applies (docs/models.md): "complete" = (ρ∇ + M_A)·a with the pitch
     # coupling (Froude–Krylov + added mass); "paper" = the paper's M_A·a alone, to reproduce its table
     "wave_load": Field("choice", choices=WAVE_LOAD_MODELS, default="complete"),
@@ -260,6 +289,8 @@ def load_sea_config(name_or_path: str | Path, overrides: Mapping[str, Any] | Non
     _check_focus(path, cfg)
     if cfg["spreading"]["s"] is not None and cfg["focus"]["crest"] is not None:
         raise ConfigError(path, "spreading.s", "a design wave (focus) is long-crested: give spreading or focus")
+    if cfg["spreading"]["direction"] != 0.0 and cfg["focus"]["crest"] is not None:
+        raise ConfigError(path, "spreading.direction", "a design wave (focus) travels along x: direction 0")
     cfg["source"] = str(path)
     cfg["name"] = cfg["name"] or path.stem
     return cfg
@@ -277,103 +308,17 @@ def _check_focus(path: Path, cfg: dict) -> None:
                                                f"({FOCUS_MAX_CREST_OVER_HS:g} Hs)")
 
 
-# ---------------------------------------------------------------------------- design waves
-
-def newwave(components: WaveComponents, crest: float, x0: float, t0: float) -> WaveComponents:
-    """The linear NewWave of a crest ``crest`` (m) at (x0 (m), t0 (s)) on the components' frequencies.
-
-    NewWave (Tromans, Anaturk & Hagemeijer 1991) is the most probable shape of
-    a large linear crest: component i carries α σ_i²/σ² with σ_i² = A_i²/2 its
-    variance and σ² = Σ σ_i², all in phase at the focus, so the elevation at x0
-    is α R(τ)/R(0), R the autocorrelation of the sea's spectrum.
-    """
-    var = 0.5 * components.amplitude**2
-    amp = crest * var / var.sum()
-    phase = -components.k * x0 + components.omega * t0
-    return WaveComponents(amp, components.omega.copy(), components.k.copy(), phase, components.water_depth,
-                          components.second_order)
-
-
-def _constrain_linear(c: WaveComponents, alpha: float, x0: float, t0: float, slope: float = 0.0) -> WaveComponents:
-    """Gaussian conditioning of the linear components on ζ₁(x0, t0) = α and ∂ζ₁/∂t (x0, t0) = ``slope`` (m/s).
-
-    With φ_i the phase at the focus, a_i = A_i cos φ_i and b_i = A_i sin φ_i (variance σ_i² each):
-    ζ₁(x0, t0) = Σ a_i and ∂ζ₁/∂t = Σ ω_i b_i. The constrained coefficients are
-    a_i + (α − Σ a_j) σ_i²/Σσ_j² and b_i − (Σ ω_j b_j) ω_i σ_i²/Σ ω_j² σ_j² (Taylor et al. 1997):
-    the random sea plus a NewWave of the missing crest, minus the record's own slope there
-    (a ``slope`` other than 0 lets :func:`constrained_newwave` cancel the 2nd-order terms' slope).
-    """
-    var = 0.5 * c.amplitude**2
-    phi = c.k * x0 - c.omega * t0 + c.phase
-    a, b = c.amplitude * np.cos(phi), c.amplitude * np.sin(phi)
-    a = a + (alpha - a.sum()) * var / var.sum()
-    b = b - (c.omega @ b - slope) * c.omega * var / (c.omega**2 @ var)
-    phase = np.arctan2(b, a) - c.k * x0 + c.omega * t0
-    return WaveComponents(np.hypot(a, b), c.omega.copy(), c.k.copy(), phase, c.water_depth, c.second_order)
-
-
-def _with_amplitudes(c: WaveComponents, amplitude: np.ndarray) -> WaveComponents:
-    return WaveComponents(amplitude, c.omega, c.k, c.phase, c.water_depth, c.second_order)
-
-
-def constrained_newwave(components: WaveComponents, crest: float, x0: float, t0: float) -> WaveComponents:
-    """The random sea ``components`` re-phased so that its elevation at (x0, t0) is a crest of ``crest`` m.
-
-    Constrained NewWave (Taylor, Jonathan & Harland 1997) conditions the random
-    linear coefficients on the crest and a zero time slope
-    (:func:`_constrain_linear`). Here the phases are taken from that
-    conditioned sea and the amplitudes stay the spectrum's √(2 S(ω_i) Δω): with
-    fixed amplitudes and the ≈ 25 components that carry a JONSWAP sea's energy,
-    full conditioning would add the group's energy to every component and
-    raise the realised Hs by 10–30 % for a 4 m crest in W2; re-phasing keeps Hs
-    exactly while the group near the focus keeps NewWave's shape (correlation
-    ≈ 0.9 over ±20 s). The conditioning crest λ is solved (Brent, to 1e-13 m) so
-    that the total elevation ζ(x0, t0), Stokes 2nd-order terms included, is
-    ``crest``. Raises ValueError if the components cannot reach it (at most
-    Σ A_i when all are in phase).
-    """
-    from scipy.optimize import brentq  # imported on first use
-
-    if not crest > 0:
-        raise ValueError(f"the focused crest must be positive, got {crest}")
-    amp = components.amplitude
-    excess = lambda lam: float(  # noqa: E731
-        elevation(_with_amplitudes(_constrain_linear(components, lam, x0, t0), amp), x0, t0)) - crest
-    lo, hi = 0.0, crest
-    while excess(hi) < 0.0:
-        lo, hi = hi, 2.0 * hi
-        if hi > 1e3 * crest:
-            raise ValueError(f"a crest of {crest} m is out of reach of these components (Σ A = {amp.sum():.2f} m)")
-    lam = brentq(excess, lo, hi, xtol=1e-13, rtol=4 * np.finfo(float).eps)
-    # Then the crest (ζ = crest) and the zero time slope of the total elevation together (Newton)
-    focused = lambda v: _with_amplitudes(_constrain_linear(components, v[0], x0, t0, v[1]), amp)  # noqa: E731
-    dt = 1e-4   # s: central difference for ∂ζ/∂t, error O(dt² ω³ A) < 1e-9 m/s
-
-    def residual(v: np.ndarray) -> np.ndarray:
-        z = elevation(focused(v), x0, np.array([t0 - dt, t0, t0 + dt]))
-        return np.array([z[1] - crest, (z[2] - z[0]) / (2.0 * dt)])
-
-    v = np.array([lam, 0.0])
-    for _ in range(30):
-        r = residual(v)
-        if abs(r[0]) < 1e-11 and abs(r[1]) < 1e-9:
-            break
-        jac = np.column_stack([(residual(v + e) - r) / 1e-6 for e in np.eye(2) * 1e-6])
-        v = v - np.linalg.solve(jac, r)
-    else:
-        raise ValueError(f"could not focus a crest of {crest} m at x = {x0} m, t = {t0} s")
-    return _with_amplitudes(_constrain_linear(components, v[0], x0, t0, v[1]), amp.copy())
-
-
 # ---------------------------------------------------------------------------- the sea
 
 @dataclass(frozen=True)
 class Sea:
-    """A realised sea travelling in +x: long-crested, or short-crested with the config's ``spreading``.
+    """A realised sea: long-crested, or short-crested with the config's ``spreading``, from any direction.
 
-    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase, and in a short-crested
-    sea each component's direction β (the x–z plane sees its in-plane kinematics, docs/sea-errors.md).
-    ``spectrum`` is the density it was drawn from (for checks and plots).
+    ``components`` holds amplitude, ω, k (finite-depth dispersion) and phase, and, unless the sea is
+    long-crested along north (+x), each component's direction of travel β (rad, from north towards
+    east; single summation). ``mean_direction`` (rad) is the config's (mean) direction, on which the
+    buoy sits up-wave. A planar world sees the x–z plane's share of the kinematics (docs/sea-errors.md),
+    the six-DoF world all of it. ``spectrum`` is the density it was drawn from (for checks and plots).
     """
 
     name: str
@@ -389,13 +334,16 @@ class Sea:
     current: tuple[float, float] = (0.0, 0.0)           # steady current: speed (m/s), direction (deg from +x)
     dynamic_pressure: bool = False                      # the depth sensor sees the waves' dynamic pressure
     wave_load: str = "complete"                         # the world's load model (WAVE_LOAD_MODELS)
+    dof: str = "planar"                                 # the world's degrees of freedom (WORLD_DOFS; auto resolved)
+    mean_direction: float = 0.0                         # rad, the waves' (mean) direction of travel from north
 
     @classmethod
     def from_config(cls, cfg: dict, seed: int | None = None, g: float = G) -> Sea:
         """Build a sea from a validated sea config; ``seed`` overrides the config's."""
         sp = cfg["spectrum"]
         if sp["type"] == "none":
-            return cls.still_water(cfg["water_depth"], cfg["name"])
+            still = cls.still_water(cfg["water_depth"], cfg["name"])
+            return replace(still, dof="six" if cfg["dof"] == "six" else "planar")
         if sp["type"] == "jonswap":
             hs, tp, gamma = sp["hs"], sp["tp"], sp["gamma"]
             spectrum = lambda w: jonswap_spectrum(w, hs, tp, gamma)  # noqa: E731
@@ -416,15 +364,18 @@ class Sea:
             focus = (float(fc["crest"]), float(fc["x"]), float(fc["t"]))
             comps = constrained_newwave(comps, *focus)
         spread = cfg.get("spreading") or {}
+        mean = float(np.radians(spread.get("direction", 0.0)))
         if spread.get("s") is not None:   # its own stream: the frequencies and phases stay the long-crested sea's
-            beta = cos2s_directions(spread["s"], np.radians(spread["direction"]), comps.n,
-                                    np.random.default_rng([seed, 0x5D]))
+            beta = cos2s_directions(spread["s"], mean, comps.n, np.random.default_rng([seed, 0x5D]))
             comps = replace(comps, direction=beta)
+        elif mean != 0.0:                 # long-crested from another direction; along north it stays None
+            comps = replace(comps, direction=np.full(comps.n, mean))
         by = cfg["buoy"]
         errors = BuoyErrors(by["noise_snr_db"], by["dropout"], by["clock_offset"], seed)
+        current = (cfg["current"]["speed"], cfg["current"]["direction"])
         return cls(cfg["name"], comps, spectrum, wp, hs_target, seed, by["x"], by["sample_rate"], focus, errors,
-                   (cfg["current"]["speed"], cfg["current"]["direction"]), cfg["depth_sensor"]["dynamic_pressure"],
-                   cfg["wave_load"])
+                   current, cfg["depth_sensor"]["dynamic_pressure"], cfg["wave_load"],
+                   resolve_dof(cfg.get("dof", DEFAULT_DOF), comps, current), mean)
 
     @classmethod
     def load(cls, case: str | Path, seed: int | None = None, overrides: Mapping[str, Any] | None = None) -> Sea:
@@ -443,16 +394,22 @@ class Sea:
 
     @property
     def current_x(self) -> float:
-        """The current's in-plane component U_c cos ψ_c (m/s, NED north = the waves' direction).
-
-        The vehicle's model is the x–z plane: the cross-plane part U_c sin ψ_c is left out.
-        """
+        """The current's in-plane component U_c cos ψ_c (m/s, NED north): what the planar world feels of it
+        (the cross-plane part U_c sin ψ_c is left out there; the six-DoF world takes :attr:`current_ned`)."""
         speed, direction = self.current
         return 0.0 if speed == 0.0 else float(speed * np.cos(np.radians(direction)))
 
-    def pressure_head(self, x, depth, t) -> np.ndarray:
-        """Linear dynamic pressure head p_d/(ρ g) (m) at (x (m), depth (m), t (s)): Σ A_i K_p,i cos θ_i."""
-        return pressure_head(self.components, x, depth, t)
+    @property
+    def current_ned(self) -> np.ndarray:
+        """The current as an NED vector (m/s): U_c (cos ψ_c, sin ψ_c, 0), depth-uniform and steady."""
+        speed, direction = self.current
+        if speed == 0.0:
+            return np.zeros(3)
+        return np.array([speed * np.cos(np.radians(direction)), speed * np.sin(np.radians(direction)), 0.0])
+
+    def pressure_head(self, x, depth, t, y=0.0) -> np.ndarray:
+        """Linear dynamic pressure head p_d/(ρ g) (m) at (x, y (m), depth (m), t (s)): Σ A_i K_p,i cos θ_i."""
+        return pressure_head(self.components, x, depth, t, y)
 
     def hs(self) -> float:
         """Significant wave height 4√m0 of the realised linear components (m)."""
@@ -474,7 +431,30 @@ class Sea:
         """(u, w, u̇, ẇ) at (x, depth, t) in one pass."""
         return particle_kinematics(self.components, x, depth, t)
 
+    def elevation_on_mean_line(self, x, t) -> np.ndarray:
+        """ζ (m, up) at the distance x (m) along the mean direction through the origin (the station), at t (s):
+        where the buoy sits. Along north (mean direction 0) this is :meth:`elevation`."""
+        if self.mean_direction == 0.0:
+            return elevation(self.components, x, t)
+        x = np.asarray(x, dtype=float)
+        return elevation_xy(self.components, x * np.cos(self.mean_direction), x * np.sin(self.mean_direction), t)
+
     def buoy(self, x: float | None = None, sample_rate: float | None = None) -> WaveBuoy:
-        """The sea's up-wave buoy (:mod:`sitl.buoy`), with the config's measurement errors."""
-        return WaveBuoy(self, self.buoy_x if x is None else x, self.buoy_rate if sample_rate is None else sample_rate,
-                        self.buoy_errors)
+        """The sea's up-wave buoy (:mod:`sitl.buoy`), with the config's measurement errors: at the distance
+        ``x`` (m; negative: up-wave) along the mean direction of travel through the station."""
+        return WaveBuoy(_MeanLine(self), self.buoy_x if x is None else x,
+                        self.buoy_rate if sample_rate is None else sample_rate, self.buoy_errors)
+
+
+@dataclass(frozen=True)
+class _MeanLine:
+    """The sea seen along its mean direction (the buoy's line): ζ at a distance x along it (a buoy's surface)."""
+
+    sea: Sea
+
+    @property
+    def components(self) -> WaveComponents:
+        return self.sea.components
+
+    def elevation(self, x, t) -> np.ndarray:
+        return self.sea.elevation_on_mean_line(x, t)

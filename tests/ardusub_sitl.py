@@ -65,7 +65,8 @@ class SubRig:
         self.tmp = tmp
         cfg = load_ardusub_config()
         sea = Sea.load(case)
-        self.server = PhysicsServer(lambda: Plant.from_configs(sea, start=start, sea_start=sea_start, six_dof=six_dof),
+        self.server = PhysicsServer(lambda: Plant.from_configs(sea, start=start, sea_start=sea_start,
+                                                                dof="six" if six_dof else "planar"),
                                     port=0, physics_rate_hz=cfg["physics_rate_hz"]).start()
         self.gcs_port, self.companion_port = free_port(), free_port()
         self.gcs = GroundStation(f"udpin:127.0.0.1:{self.gcs_port}")

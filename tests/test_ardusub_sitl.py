@@ -71,7 +71,7 @@ def test_heading_roll_and_sway_holds_do_not_wind_up(sub):
     for axis, bound in (("yaw", 8.0), ("lateral", 25.0), ("roll", 8.0)):
         mean = float(np.mean([a[axis] for a in axes]))
         assert abs(mean) < bound, (axis, mean)
-    psi = sub.server.plant.lateral.state[2]
+    psi = sub.server.plant.state.eta6[5]
     assert abs(math.degrees(psi)) < 5.0                            # and the heading is held
 
 

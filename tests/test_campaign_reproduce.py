@@ -34,11 +34,12 @@ def test_reproduce_keeps_its_schema_and_figures(tmp_path):
             run_dir = tmp_path / "runs" / f"{c}-{v}"
             assert json.loads((run_dir / "results.json").read_text())["case"] == c
             assert len((run_dir / "timeseries.csv").read_text().splitlines()) > 30   # header + about 2 s at 20 Hz
-    # a run through the engine is the in-process run, in either world
+    # a run through the engine is the in-process run, in either world (both planar: the paper's vehicle)
     want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0,
-                               sea={"wave_load": "paper"}, overrides={"WK_LOAD_MODEL": 0})).results
+                               sea={"wave_load": "paper", "dof": "planar"}, overrides={"WK_LOAD_MODEL": 0})).results
     assert doc["runs"][5]["rmse"] == want["rmse"] and doc["runs"][5]["max_abs_error"] == want["max_abs_error"]
-    want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0)).results
+    want = run_mission(RunSpec(case="W2", controller="cpd_ff", snr_db=15.0, seed=5, duration=2.0,
+                               sea={"dof": "planar"})).results     # reproduce flies the planar world
     assert doc["corrected"]["runs"][5]["rmse"] == want["rmse"]
 
 

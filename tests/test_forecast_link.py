@@ -34,6 +34,27 @@ def test_codec_round_trip_is_exact(forecast):
     assert (g.seq, g.source, g.second_order, g.valid_until, g.water_depth) == (3, "oracle", True, 60.0, 54.0)
 
 
+def test_a_forecast_of_a_sea_with_directions_carries_them_as_version_2(forecast):
+    """The oracle of a sea from another direction (here spread about 60°) names each component's direction; it
+    goes as version 2 and comes back exact, and its kinematics are the sea's; one along north stays version 1."""
+    sea = Sea.load("W1", overrides={"spreading.s": 10.0, "spreading.direction": 60.0})
+    f = oracle_forecast(sea.components, None, None, valid_until=60.0)
+    payload = encode_forecast(f)
+    version = lambda b: struct.unpack_from("<H", b, 4)[0]  # noqa: E731
+    assert version(payload) == 2 and version(encode_forecast(forecast)) == 1
+    g = decode_forecast(payload)
+    np.testing.assert_array_equal(g.direction, sea.components.direction)
+    assert decode_forecast(encode_forecast(forecast)).direction is None
+    np.testing.assert_array_equal(g.components().direction, sea.components.direction)
+    np.testing.assert_allclose(g.components().phase, sea.components.phase, atol=1e-12)
+    with pytest.raises(ForecastDecodeError) as info:        # version 2 without its direction flag
+        decode_forecast(corrupt(payload, 6, "<H", 1))
+    assert info.value.reason == "bad_version"
+    with pytest.raises(ForecastDecodeError) as info:
+        decode_forecast(payload[:-8] + struct.pack("<d", float("nan")))
+    assert info.value.reason == "bad_direction"
+
+
 def corrupt(payload: bytes, offset: int, fmt: str, value) -> bytes:
     b = bytearray(payload)
     struct.pack_into(fmt, b, offset, value)

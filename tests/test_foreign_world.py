@@ -75,7 +75,7 @@ def test_still_water_until_the_sea_starts_then_the_same_sea(sea):
 
 
 def _six_dof(sea) -> Plant:
-    plant = Plant.from_configs(sea, sea_start=1e6, six_dof=True)
+    plant = Plant.from_configs(sea, sea_start=1e6, dof="six")
     plant.reset(eta=np.array([0.0, 5.0, 0.0]))
     return plant
 
@@ -85,11 +85,11 @@ def test_yaw_reaches_the_quadratic_damping_terminal_rate(sea):
     plant = _six_dof(sea)
     pwm = NEUTRAL.copy()
     pwm[[0, 3]], pwm[[1, 2]] = 1650.0, 1350.0               # ArduSub's yaw factors: +m1 −m2 −m3 +m4
-    n_cmd = float(plant.lateral.rows[2] @ plant.curve.thrust(pwm))
+    n_cmd = float(plant.B6[5] @ plant.curve.thrust(pwm))
     for _ in range(600):
         plant.step(pwm, 0.05)
     lat = load_vehicle_config()["lateral"]
-    r = plant.lateral.state[5]
+    r = plant.state.nu6[5]
     assert abs(n_cmd) > 1.0
     assert r == pytest.approx(math.copysign(math.sqrt(abs(n_cmd) / lat["N_rr"]), n_cmd), rel=0.02)
 
@@ -98,11 +98,11 @@ def test_roll_oscillates_at_the_hydrostatic_small_angle_period(sea):
     """Released at 2° the roll swings with T = 2π √((I_x + K_ṗ) / ((z_G W − z_B B))) (quadratic damping at that
     amplitude shortens it by well under 1 %)."""
     plant = _six_dof(sea)
-    plant.lateral.state[1] = math.radians(2.0)
+    plant.reset(eta=np.array([0.0, 0.0, 5.0, math.radians(2.0), 0.0, 0.0]))
     phi, t = [], []
     for _ in range(4000):
         plant.step(NEUTRAL, 0.005)
-        phi.append(plant.lateral.state[1])
+        phi.append(plant.state.eta6[3])
         t.append(plant.state.t)
     phi, t = np.array(phi), np.array(t)
     up = t[1:][(phi[:-1] < 0) & (phi[1:] >= 0)]            # upward zero crossings

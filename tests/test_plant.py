@@ -31,7 +31,7 @@ def vehicle() -> VehicleParams:
 
 
 def still_plant(substeps: int = 1) -> Plant:
-    plant = Plant.from_configs(Sea.still_water())
+    plant = Plant.from_configs(Sea.still_water(), dof="planar")   # the planar model's own checks
     plant.substeps = substeps
     return plant
 

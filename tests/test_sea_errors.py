@@ -149,8 +149,8 @@ def test_dswp_feeder_defaults_are_the_former_behaviour():
 
 # ---------------------------------------------------------------------------- 2. current and true vehicle
 
-def _drift(sea: Sea, true_vehicle=None, seconds=60.0, depth=30.0) -> tuple[Plant, np.ndarray]:
-    plant = Plant.from_configs(sea, true_vehicle=true_vehicle)
+def _drift(sea: Sea, true_vehicle=None, seconds=60.0, depth=30.0, dof=None) -> tuple[Plant, np.ndarray]:
+    plant = Plant.from_configs(sea, true_vehicle=true_vehicle, dof=dof)
     plant.reset(eta=[0.0, depth, 0.0])
     xs = []
     for _ in range(int(seconds * 20)):
@@ -161,10 +161,26 @@ def _drift(sea: Sea, true_vehicle=None, seconds=60.0, depth=30.0) -> tuple[Plant
 
 @pytest.mark.parametrize("direction, in_plane", [(0.0, 0.3), (60.0, 0.15), (180.0, -0.3)])
 def test_an_unpowered_vehicle_drifts_with_the_current(direction, in_plane):
+    """The planar world feels the current's in-plane part U cos ψ_c."""
     sea = dataclasses.replace(Sea.still_water(), current=(0.3, direction))
-    _, eta = _drift(sea)
+    _, eta = _drift(sea, dof="planar")
     x_rate = (eta[-1, 0] - eta[-201, 0]) / 10.0       # over the last 10 s
     assert x_rate == pytest.approx(in_plane, abs=1e-4)
+
+
+@pytest.mark.parametrize("direction", [0.0, 60.0, 135.0, -90.0])
+def test_in_six_dof_an_unpowered_vehicle_drifts_with_the_whole_current(direction):
+    """The six-DoF world takes the current as an NED vector: the vehicle drifts north and east with it (sway's
+    damping is quadratic only, so the last of the relative sway decays as 1/t: a few mm/s after a minute)."""
+    sea = dataclasses.replace(Sea.still_water(), current=(0.3, direction))
+    plant, _ = _drift(sea, seconds=90.0, dof="six")
+    rows = []
+    for _ in range(200):
+        plant.step(NEUTRAL, 0.05)
+        rows.append(plant.state.eta6[:2].copy())
+    rate = (rows[-1] - rows[0]) / (199 * 0.05)
+    np.testing.assert_allclose(rate, 0.3 * np.array([np.cos(np.radians(direction)), np.sin(np.radians(direction))]),
+                               atol=4e-3)
 
 
 def test_current_is_the_same_on_the_numpy_reference_path(monkeypatch):
@@ -179,9 +195,12 @@ def test_current_is_the_same_on_the_numpy_reference_path(monkeypatch):
 
 def test_zero_current_leaves_the_plant_bit_for_bit():
     w1 = Sea.load("W1")
-    _, a = _drift(w1, seconds=5.0, depth=5.0)
-    _, b = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0)
-    _, c = _drift(dataclasses.replace(w1, current=(0.2, 90.0)), seconds=5.0, depth=5.0)   # cross-plane only
+    _, a = _drift(w1, seconds=5.0, depth=5.0, dof="planar")
+    _, b = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0, dof="planar")
+    _, c = _drift(dataclasses.replace(w1, current=(0.2, 90.0)), seconds=5.0, depth=5.0, dof="planar")   # cross-plane
+    _, d = _drift(dataclasses.replace(w1, current=(0.0, 30.0)), seconds=5.0, depth=5.0, dof="six")   # and six DoF
+    _, e = _drift(w1, seconds=5.0, depth=5.0, dof="six")
+    assert np.array_equal(d, e)
     assert np.array_equal(a, b) and np.allclose(a, c, rtol=0, atol=1e-12)
 
 

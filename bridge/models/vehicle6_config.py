@@ -17,7 +17,7 @@ from bridge.schemas import VEHICLE_SCHEMA, _positive
 from .rigid_body6 import RigidBody6Params, rigid_body_mass
 from .waves import G
 
-__all__ = ["VEHICLE6_SCHEMA", "load_rigid_body6", "load_vehicle6_config"]
+__all__ = ["VEHICLE6_SCHEMA", "load_rigid_body6", "load_vehicle6_config", "rigid_body6_from_vehicle"]
 
 
 def _coefficients(names: tuple[str, ...], hi: tuple[float, ...], unit: tuple[str, ...]) -> dict:
@@ -75,3 +75,22 @@ def load_vehicle6_config(name_or_path: str | Path = "bluerov2_heavy_6dof") -> di
 def load_rigid_body6(name_or_path: str | Path = "bluerov2_heavy_6dof") -> RigidBody6Params:
     """The six-DoF parameters of ``configs/vehicle/NAME.yaml`` (or a path), validated on load."""
     return RigidBody6Params.from_config(load_vehicle6_config(name_or_path))
+
+
+def rigid_body6_from_vehicle(vcfg: dict) -> RigidBody6Params:
+    """The six-DoF parameters of a validated planar vehicle config (:func:`bridge.schemas.load_vehicle_config`):
+    its surge, heave and pitch values and its ``lateral`` section (sway, roll, yaw and the beam).
+
+    What the six-DoF world flies, so that a plant-only true vehicle (which scales the planar config) and the
+    firmware's nominal vehicle stay one file; for the shipped vehicle this is
+    ``configs/vehicle/bluerov2_heavy_6dof.yaml`` exactly (tested).
+    """
+    mp, am, dp, lat = vcfg["mass_properties"], vcfg["added_mass"], vcfg["damping"], vcfg["lateral"]
+    return RigidBody6Params(
+        W=mp["W"], B=mp["B"], I_x=lat["I_x"], I_y=mp["I_y"], I_z=lat["I_z"], r_G=np.array(mp["r_G"]),
+        r_B=np.array(mp["r_B"]), length=mp["length"], beam=lat["beam"], height=mp["height"],
+        added_mass=np.array([am["X_udot"], lat["Y_vdot"], am["Z_wdot"], lat["K_pdot"], am["M_qdot"], lat["N_rdot"]]),
+        X_qdot=am["X_qdot"], linear_damping=np.array([dp["X_u"], lat["Y_v"], dp["Z_w"], lat["K_p"], dp["M_q"],
+                                                      lat["N_r"]]),
+        quadratic_damping=np.array([dp["X_uu"], lat["Y_vv"], dp["Z_ww"], lat["K_pp"], dp["M_qq"], lat["N_rr"]]),
+        displaced_volume=mp.get("displaced_volume"), water_density=mp["water_density"])

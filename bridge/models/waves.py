@@ -247,7 +247,7 @@ def elevation_grid(c: WaveComponents, x, t) -> np.ndarray:
     return eta
 
 
-def pressure_head(c: WaveComponents, x, depth, t) -> np.ndarray:
+def pressure_head(c: WaveComponents, x, depth, t, y=0.0) -> np.ndarray:
     """Linear dynamic pressure head p_d/(ρ g) (m) at (x (m), depth s ≥ 0 (m, down), t (s)).
 
     p_d/(ρ g) = Σ A_i K_p(k_i, s) cos θ_i with the pressure transfer function
@@ -255,14 +255,18 @@ def pressure_head(c: WaveComponents, x, depth, t) -> np.ndarray:
     the still surface). A pressure sensor at depth s reads p/(ρ g) = s + this
     head (first order: the Stokes 2nd-order pressure is left out). The ratio is
     evaluated as (e^{−ks} + e^{−k(2d−s)})/(1 + e^{−2kd}), so large kd cannot overflow.
-    ``x``, ``depth`` and ``t`` broadcast together; the result has their shape.
+    ``x``, ``depth`` and ``t`` broadcast together; the result has their shape. ``y`` (m, east) places the
+    point off the x–z plane in a sea whose components have directions (phase k (x cos β + y sin β) − ω t + ε).
     """
     x, depth, t = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(depth, dtype=float),
                                       np.asarray(t, dtype=float))
     s = np.clip(depth, 0.0, c.water_depth)[..., None]
     e2d = np.exp(-2.0 * c.k * c.water_depth)
     kp = (np.exp(-c.k * s) + e2d * np.exp(c.k * s)) / (1.0 + e2d)
-    return (kp * np.cos(_phase(c, x, t))) @ c.amplitude
+    th = _phase(c, x, t)
+    if c.direction is not None and np.any(np.asarray(y) != 0.0):
+        th = th + np.asarray(y, dtype=float)[..., None] * (c.k * np.sin(c.direction))
+    return (kp * np.cos(th)) @ c.amplitude
 
 
 def _kinematics_from_trig(c: WaveComponents, ct, st, depth):

@@ -197,6 +197,7 @@ def truth_timeseries(path: Path, sea: Sea, sea_start: float, duration: float, se
     log[:, col["sp_x"]:col["sp_theta"] + 1] = setpoint
     log[:, col["tau_X"]:col["tau_M"] + 1] = truth[rows, 11:14]
     log[:, col["tauE_X"]:col["tauE_M"] + 1] = truth[nxt, 7:10]
+    log[:, col["y"]:col["psi"] + 1] = truth[rows, 14:17]        # the plant's y, φ, ψ (TRUTH_COLUMNS)
     log[:, col["ff_active"]] = 0.0
     log[:, col["saturated"]] = 0.0
     log[:, col["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])

@@ -431,6 +431,7 @@ def _merge_logs(truth: np.ndarray, ticks: np.ndarray, n: int, sea, forecast) -> 
     log[:, 0:7] = truth[ks, 0:7]
     log[:, 7:7 + ticks.shape[1] - 1] = ticks[[by_tick[k] for k in rows], 1:]
     log[:, col["tauE_X"]:col["tauE_M"] + 1] = truth[ks + 1, 7:10]
+    log[:, col["y"]:col["psi"] + 1] = truth[ks, 14:17]          # the plant's y, φ, ψ (TRUTH_COLUMNS)
     log[:, col["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
     log[:, col["forecast_eta"]] = (elevation_along(forecast.components(), log[:, 1], log[:, 0])
                                    if forecast is not None else np.nan)

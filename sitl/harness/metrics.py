@@ -10,9 +10,11 @@ import numpy as np
 
 from bridge.models.thrusters import power_per_dof
 
-__all__ = ["DOF", "format_table", "station_keeping_metrics"]
+__all__ = ["DOF", "DOF6", "format_six_dof", "format_table", "six_dof_metrics", "station_keeping_metrics"]
 
 DOF = ("surge", "heave", "pitch")
+DOF6 = ("x", "y", "z", "roll", "pitch", "yaw")
+"""The six-DoF pose's names in results.json's ``six_dof`` (m for x, y, z; rad for the angles)."""
 
 
 def station_keeping_metrics(t: np.ndarray, eta: np.ndarray, setpoint: np.ndarray, tau: np.ndarray) -> dict:
@@ -34,6 +36,32 @@ def station_keeping_metrics(t: np.ndarray, eta: np.ndarray, setpoint: np.ndarray
         "mean_power_w": dict(zip(DOF, np.mean(power, axis=0).tolist(), strict=False)),
         "energy_j": dict(zip(DOF, (power * dt[:, None]).sum(axis=0).tolist(), strict=False)),
     }
+
+
+def six_dof_metrics(eta6: np.ndarray, setpoint6: np.ndarray, dof: str) -> dict:
+    """RMSE and max |error| of the six-DoF pose, and the horizontal error √(Δx² + Δy²) (m).
+
+    eta6 (K, 6) truth [x, y, z, φ, θ, ψ] (NED m, rad); setpoint6 (6,) the station and its attitude (the
+    vehicle's start heading). ``dof`` is the world's ("planar": y, roll, yaw are zero by construction).
+    """
+    err = np.asarray(eta6, dtype=float) - np.asarray(setpoint6, dtype=float)
+    horizontal = np.hypot(err[:, 0], err[:, 1])
+    return {
+        "world_dof": dof,
+        "rmse": dict(zip(DOF6, np.sqrt(np.mean(err**2, axis=0)).tolist(), strict=True)),
+        "max_abs_error": dict(zip(DOF6, np.max(np.abs(err), axis=0).tolist(), strict=True)),
+        "horizontal_error_m": {"rmse": float(np.sqrt(np.mean(horizontal**2))), "max": float(np.max(horizontal))},
+    }
+
+
+def format_six_dof(m: dict) -> str:
+    """Two lines of a results document's ``six_dof`` metrics: RMSE and max per DoF (m; angles in degrees)."""
+    def row(d: dict) -> str:
+        return "  ".join(f"{k} {d[k] * (1.0 if k in ('x', 'y', 'z') else float(np.degrees(1.0))):.3g}"
+                         f"{' m' if k in ('x', 'y', 'z') else '°'}" for k in DOF6)
+    h = m["horizontal_error_m"]
+    return (f"six DoF ({m['world_dof']} world) RMSE: {row(m['rmse'])}; horizontal {h['rmse']:.3g} m\n"
+            f"six DoF max |error|: {row(m['max_abs_error'])}; horizontal {h['max']:.3g} m")
 
 
 def format_table(rows: dict[str, dict]) -> str:

@@ -51,15 +51,17 @@ PAPER: dict[str, Any] = {
 }
 
 
-PAPER_WORLD: dict[str, dict[str, Any]] = {"sea": {"wave_load": "paper"}, "overrides": {"WK_LOAD_MODEL": 0.0}}
-"""The paper's world: its wave load (Eq. 10/11: the added-mass force alone, no Froude–Krylov force) in the
-plant (the sea config's ``wave_load``) and in the firmware's nominal model (``WK_LOAD_MODEL``)."""
+PAPER_WORLD: dict[str, dict[str, Any]] = {"sea": {"wave_load": "paper", "dof": "planar"},
+                                          "overrides": {"WK_LOAD_MODEL": 0.0}}
+"""The paper's world: its planar vehicle (surge, heave, pitch: the sea config's ``dof``) and its wave load (Eq.
+10/11: the added-mass force alone, no Froude–Krylov force) in the plant (``wave_load``) and in the firmware's
+nominal model (``WK_LOAD_MODEL``)."""
 
 WORLDS: dict[str, tuple[str, dict[str, dict[str, Any]]]] = {
     "paper": ("the paper's world: its wave load, Eq. 10/11 (added mass only), in the plant and the firmware's "
               "model (WK_LOAD_MODEL 0)", PAPER_WORLD),
     "corrected": ("the corrected world (the default): Froude-Krylov + added mass, (rho V + M_A) a, with the "
-                  "pitch coupling, in the plant and the firmware's model", {"sea": {}, "overrides": {}}),
+                  "pitch coupling, in the plant and the firmware's model", {"sea": {"dof": "planar"}, "overrides": {}}),
 }
 """reproduce's two worlds: a caption and the RunSpec fields that make each."""
 

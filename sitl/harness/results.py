@@ -13,11 +13,11 @@ from typing import Any
 
 import numpy as np
 
-from bridge.models.waves import WaveComponents, elevation
+from bridge.models.waves import WaveComponents, elevation, elevation_xy
 from firmware_py.logger.tick_columns import TICK_COLUMNS, SolveStatus
 from sitl.sea import Sea
 
-from .metrics import station_keeping_metrics
+from .metrics import six_dof_metrics, station_keeping_metrics
 from .spec import RunSpec
 
 __all__ = ["TIMESERIES_COLUMNS", "RunResult", "controller_summary", "ekf_consistency", "ekf_lapses", "elevation_along",
@@ -29,6 +29,7 @@ TIMESERIES_COLUMNS = (
     *TICK_COLUMNS,                                     # what the firmware's tick saw and did
     "tauE_X", "tauE_Z", "tauE_M",                      # true wave load at the end of the tick's period
     "wave_eta", "forecast_eta",                        # elevations at the vehicle's x
+    "y", "phi", "psi",                                 # truth out of the plane: east (m), roll, yaw (rad)
 )
 """Columns of ``timeseries.csv``: one row per control tick."""
 
@@ -44,9 +45,15 @@ class RunResult:
     forecasts: list[tuple[float, Any]] | None = None    # (t s, WaveComponents) as handed over: DSWP in-process
 
 
-def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, chunk: int = 2048) -> np.ndarray:
-    """Wave elevation ζ (m) at the points (x[i], t[i]), in chunks to bound the (points × components) memory."""
-    return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk]) for i in range(0, x.size, chunk)])
+def elevation_along(components: WaveComponents, x: np.ndarray, t: np.ndarray, chunk: int = 2048,
+                    y: np.ndarray | None = None) -> np.ndarray:
+    """Wave elevation ζ (m) at the points (x[i], t[i]) (and y[i], m east, in a sea with directions), in chunks to
+    bound the (points × components) memory."""
+    if y is None or components.direction is None:
+        return np.concatenate([elevation(components, x[i:i + chunk], t[i:i + chunk])
+                               for i in range(0, x.size, chunk)])
+    return np.concatenate([elevation_xy(components, x[i:i + chunk], y[i:i + chunk], t[i:i + chunk])
+                           for i in range(0, x.size, chunk)])
 
 
 STATES = ("x", "z", "theta", "u", "w", "q")
@@ -131,6 +138,8 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
     """
     c = COLUMN
     metrics = station_keeping_metrics(log[:, 0], log[:, 1:4], setpoint, log[:, c["tau_X"]:c["tau_M"] + 1])
+    eta6 = log[:, [c["x"], c["y"], c["z"], c["phi"], c["theta"], c["psi"]]]
+    station6 = np.array([setpoint[0], 0.0, setpoint[1], 0.0, setpoint[2], 0.0])
     estimate_error = log[:, c["x_hat"]:c["q_hat"] + 1] - log[:, 1:7]
     return {
         "case": sea.name,
@@ -141,6 +150,7 @@ def mission_results(sea: Sea, spec: RunSpec, duration: float, rate: float, setpo
         "duration_s": duration,
         "rate_hz": rate,
         **metrics,
+        "six_dof": six_dof_metrics(eta6, station6, sea.dof),
         "tick_overruns": control_stats.get("overruns", 0),
         "label": spec.label,
         "ff_law": spec.ff_law,

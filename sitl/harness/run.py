@@ -183,7 +183,8 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
             if r is None:
                 raise RuntimeError(f"the control task produced no output at t = {truth.t:.2f} s: "
                                    f"{fw.scheduler.stats()['tasks']['control']}")
-            log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan]
+            e6 = truth.eta6
+            log[k] = [truth.t, *truth.eta, *truth.nu, *tick_row(r), *plant.tau_E, np.nan, np.nan, e6[1], e6[3], e6[5]]
             for queue in (fw.notes, fw.events):       # log-only notes (mode changes...), then STATUSTEXTs
                 if queue:
                     events.extend((truth.t, severity, text) for severity, text in queue)
@@ -193,9 +194,10 @@ def run_mission(spec: RunSpec, params: ParameterTable | None = None, progress: b
     if diverged is not None and len(log) < 2:
         raise MissionDiverged(str(diverged), None)
     # Elevations at the vehicle's x, for the record (after the run: one vectorised pass)
-    log[:, COLUMN["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0])
+    y = log[:, COLUMN["y"]]
+    log[:, COLUMN["wave_eta"]] = elevation_along(sea.components, log[:, 1], log[:, 0], y=y)
     if forecast is not None:
-        log[:, COLUMN["forecast_eta"]] = elevation_along(forecast.components(), log[:, 1], log[:, 0])
+        log[:, COLUMN["forecast_eta"]] = elevation_along(forecast.components(), log[:, 1], log[:, 0], y=y)
     stats = {**fw.scheduler.stats(), "faults": fw.fault_counts()}
     errors = stats["tasks"]["control"].get("errors", 0)
     if errors:

@@ -30,9 +30,13 @@ def load_run(folder: str | Path):
         raise o.UsageError(f"{folder}: not a run folder (needs results.json and timeseries.csv)")
     with open(ts) as fh:
         header = fh.readline().strip().split(",")
-    if tuple(header) != TIMESERIES_COLUMNS:
+    planar = TIMESERIES_COLUMNS[:-3]    # a run from before the six-DoF world: its y, φ, ψ were zero
+    if tuple(header) not in (TIMESERIES_COLUMNS, planar):
         raise o.UsageError(f"{folder}: timeseries.csv is not a station-keeping run's (wavekeep run / sim)")
-    return RunResult(json.loads(res.read_text()), np.loadtxt(ts, delimiter=",", skiprows=1, ndmin=2))
+    log = np.loadtxt(ts, delimiter=",", skiprows=1, ndmin=2)
+    if tuple(header) == planar:
+        log = np.hstack([log, np.zeros((log.shape[0], 3))])
+    return RunResult(json.loads(res.read_text()), log)
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

@@ -55,7 +55,7 @@ def add_parsers(sub) -> None:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """One station-keeping mission in-process: prints the results, writes the run folder."""
-    from ..metrics import format_table
+    from ..metrics import format_six_dof, format_table
     from ..provenance import write_run_record
     from ..results import lapse_lines
     from ..run import MissionDiverged, run_mission, write_run
@@ -77,6 +77,8 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), "
           f"{r['tick_overruns']} tick overruns, control tick p99 {r['control_tick']['p99_us']:.0f} µs")
     print(format_table({r["label"]: r}))
+    if "six_dof" in r:
+        print(format_six_dof(r["six_dof"]))
     for line in lapse_lines(r):
         print(line)
     print(f"wrote {out}: results.json, timeseries.csv, run.json" + ("" if args.no_plots else ", time_history.png"))

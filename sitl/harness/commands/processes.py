@@ -198,7 +198,7 @@ def _fly_sim(args: argparse.Namespace, opt, binary: Path | None, ardusub_params:
 
 def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
     """What ``sim`` prints and writes after its mission: run.json, the table, the recording."""
-    from ..metrics import format_table
+    from ..metrics import format_six_dof, format_table
     from ..provenance import write_run_record
     from ..results import lapse_lines
 
@@ -206,6 +206,8 @@ def _report_sim(args: argparse.Namespace, out, spec, r: dict, live) -> None:
     print(f"{r['case']} {r['label']} across processes, seed {r['seed']}, {r['duration_s']:g} s: "
           f"{r['wall_time_s']:.1f} s wall ({r['speed_x_realtime']:.0f}x real time), {r['tick_overruns']} tick overruns")
     print(format_table({r["label"]: r}))
+    if "six_dof" in r:
+        print(format_six_dof(r["six_dof"]))
     for line in lapse_lines(r):
         print(line)
     print(f"wrote {out}: results.json, timeseries.csv" + ("" if args.no_plots else ", time_history.png")
