@@ -55,7 +55,8 @@ from dataclasses import dataclass, field
 
 from .clocks import Clock, RingBuffer
 
-__all__ = ["GIL_SWITCH_INTERVAL_S", "Scheduler", "Task", "TaskStats", "settle_for_loop", "shorten_gil_switch"]
+__all__ = ["GIL_SWITCH_INTERVAL_S", "Scheduler", "Task", "TaskStats", "interrupt_in", "settle_for_loop",
+           "shorten_gil_switch"]
 
 GIL_SWITCH_INTERVAL_S = 0.0005
 """How long (s) another Python thread may keep the interpreter before the loop's thread gets it back. CPython's
@@ -77,14 +78,25 @@ def settle_for_loop(realtime: bool) -> None:
         shorten_gil_switch()
 
 
+def interrupt_in(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C an exception carries as its cause or context, or None: a KeyboardInterrupt that lands inside a
+    compiled call (numba boxing a kernel's result) comes back as a SystemError "returned a result with an exception
+    set" raised from it."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 def _reraise_interrupt(exc: BaseException) -> None:
-    """Raise the Ctrl-C an ``Exception`` carries: a KeyboardInterrupt that arrives inside a compiled call (numba)
-    comes back as a SystemError caused by it, and must stop the run as a Ctrl-C, not count as a task's fault."""
-    seen: BaseException | None = exc
-    while seen is not None:
-        if isinstance(seen, KeyboardInterrupt):
-            raise seen
-        seen = seen.__cause__ or seen.__context__
+    """A task's exception that carries a Ctrl-C stops the run as a Ctrl-C, not as a task's fault."""
+    interrupt = interrupt_in(exc)
+    if interrupt is not None:
+        raise interrupt
 
 
 @dataclass

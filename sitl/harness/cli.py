@@ -62,19 +62,6 @@ def _command(argv: list[str]) -> str:
     return next((a for a in argv if not a.startswith("-")), "")
 
 
-def _interrupted(exc: BaseException) -> bool:
-    """Is a KeyboardInterrupt the cause (or the context) of ``exc``? A SIGINT that lands while numba boxes a
-    kernel's result is raised as a SystemError "returned a result with an exception set" from the interrupt."""
-    seen: set[int] = set()
-    e: BaseException | None = exc
-    while e is not None and id(e) not in seen:
-        if isinstance(e, KeyboardInterrupt):
-            return True
-        seen.add(id(e))
-        e = e.__cause__ or e.__context__
-    return False
-
-
 def main(argv: list[str] | None = None) -> int:
     use_one_blas_thread()   # before any command imports numpy (sitl/harness/blas.py says why)
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -96,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as exc:
         from bridge.configfile import ConfigError
-        if _interrupted(exc):    # Ctrl-C inside a compiled kernel's call surfaces as the error it caused
+        from firmware_py.hal.scheduler import interrupt_in
+        if interrupt_in(exc) is not None:    # Ctrl-C inside a compiled kernel's call surfaces as the error it caused
             print(f"{prefix}: interrupted", file=sys.stderr)
             return 130
         if isinstance(exc, ConfigError):
