@@ -99,6 +99,7 @@ class CompanionService:
         self._requests: queue.Queue[_Request] = queue.Queue()
         self._pending: _Request | None = None
         self._last_tick = -math.inf
+        self.ticks = 0                          # control ticks of this process (every session)
         self._forecast_seen = (0, -math.inf)    # (offers counted, wall s of the newest)
         self._thread: threading.Thread | None = None
         self.before_session: Callable[[], None] | None = None
@@ -193,6 +194,7 @@ class CompanionService:
     def _tick(self, _slot_ns: int = 0) -> None:
         c = self.commander
         self._last_tick = time.monotonic()
+        self.ticks += 1
         c.permitted = False                      # a permit lasts one gate
         if self._pending is not None:            # last tick's engage: did the gate engage?
             req, self._pending = self._pending, None

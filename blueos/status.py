@@ -6,8 +6,11 @@ reference or a number), so a snapshot may mix two ticks, never a torn value. Non
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -64,6 +67,17 @@ def _control(service) -> dict[str, Any]:
     return out
 
 
+def _process(service) -> dict[str, Any]:
+    """This process's CPU time (s, user + system) and resident memory (MB): what the container's limits bound."""
+    t = os.times()
+    rss = None
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                rss = int(line.split()[1]) / 1024.0
+    return {"cpu_s": round(t.user + t.system, 3), "rss_mb": _num(rss, 1), "ticks": service.ticks}
+
+
 def status(service) -> dict[str, Any]:
     """The page's snapshot of a :class:`~blueos.service.CompanionService` (JSON-ready)."""
     now = time.monotonic()
@@ -71,4 +85,4 @@ def status(service) -> dict[str, Any]:
     events = [text for _t, text in list(c.events)[-8:]] if c is not None else []
     return {"headline": service.status_line(), "link": _link(service, now), "forecast": _forecast(service, now),
             "control": _control(service), "events": events, "settings": service.settings.as_dict(),
-            "settings_error": service.settings_error}
+            "settings_error": service.settings_error, "process": _process(service)}
