@@ -68,14 +68,17 @@ def _control(service) -> dict[str, Any]:
 
 
 def _process(service) -> dict[str, Any]:
-    """This process's CPU time (s, user + system) and resident memory (MB): what the container's limits bound."""
+    """This process's CPU time (s, user + system), resident memory now and at its peak (MB), and its control ticks:
+    what the container's limits bound."""
     t = os.times()
-    rss = None
+    kb: dict[str, float] = {}
     with contextlib.suppress(OSError):
         for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                rss = int(line.split()[1]) / 1024.0
-    return {"cpu_s": round(t.user + t.system, 3), "rss_mb": _num(rss, 1), "ticks": service.ticks}
+            if line.startswith(("VmRSS:", "VmHWM:")):
+                kb[line[:5]] = float(line.split()[1])
+    mb = {k: _num(v / 1024.0, 1) for k, v in kb.items()}
+    return {"cpu_s": round(t.user + t.system, 3), "rss_mb": mb.get("VmRSS"), "rss_peak_mb": mb.get("VmHWM"),
+            "ticks": service.ticks}
 
 
 def status(service) -> dict[str, Any]:

@@ -13,6 +13,7 @@ router as the extension sees it, a vehicle, and a wave forecast over zenoh.
 """
 from __future__ import annotations
 
+import http.server
 import json
 import os
 import select
@@ -25,7 +26,7 @@ import time
 import urllib.error
 import urllib.request
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
@@ -34,7 +35,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from sitl.harness.companion_launch import stand_in_args
 from sitl.harness.ports import free_port
 
-__all__ = ["CLI", "Extension", "ForecastPublisher", "RouterStandIn", "StandIn"]
+__all__ = ["CLI", "BlueOSStub", "Extension", "ForecastPublisher", "RouterStandIn", "StandIn"]
 
 CLI = [sys.executable, "-m", "sitl.harness.cli"]
 ENV = dict(os.environ, PYTHONUNBUFFERED="1")
@@ -107,11 +108,11 @@ class RouterStandIn:
     """BlueOS's router for one UDP server endpoint: the extension sends to :attr:`port`; the vehicle's UDP client
     link sends to :attr:`vehicle_port`. Each side's datagrams go to the other's last address."""
 
-    def __init__(self):
+    def __init__(self, vehicle_port: int = 0):
         self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.front.bind(("127.0.0.1", 0))
         self.back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.back.bind(("127.0.0.1", 0))
+        self.back.bind(("127.0.0.1", vehicle_port))
         self.port, self.vehicle_port = self.front.getsockname()[1], self.back.getsockname()[1]
         self.peers: dict[socket.socket, tuple | None] = {self.front: None, self.back: None}
         self.parser = mavlink.MAVLink(None)
@@ -211,3 +212,44 @@ class ForecastPublisher:
         self._stop.set()
         self._thread.join(2)
         self.session.close()
+
+
+class _ArduPilotManager(http.server.BaseHTTPRequestHandler):
+    """BlueOS's ArduPilot manager, as far as its endpoints list goes (GET lists, POST adds)."""
+
+    endpoints: ClassVar[list] = []
+
+    def do_GET(self):
+        self._reply(200, json.dumps(self.endpoints))
+
+    def do_POST(self):
+        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        type(self).endpoints = [*self.endpoints, *body]
+        self._reply(201, "null")
+
+    def _reply(self, code: int, text: str) -> None:
+        self.send_response(code)
+        self.send_header("Content-Type", "application/json")
+        self.end_headers()
+        self.wfile.write(text.encode())
+
+    def log_message(self, *args):
+        pass
+
+
+class BlueOSStub:
+    """A real HTTP server on loopback answering ``/ardupilot-manager/v1.0/endpoints``; :attr:`endpoints`."""
+
+    def __init__(self):
+        self.handler = type("Manager", (_ArduPilotManager,), {"endpoints": []})
+        self.server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), self.handler)
+        threading.Thread(target=self.server.serve_forever, daemon=True).start()
+        self.url = f"http://127.0.0.1:{self.server.server_address[1]}/ardupilot-manager/v1.0/endpoints"
+
+    @property
+    def endpoints(self) -> list:
+        return self.handler.endpoints
+
+    def close(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()

@@ -4,17 +4,15 @@ Extensions-Repository's metadata.json and logo, the settings file's validation a
 registration against a real HTTP server. The image itself is built only where a Docker daemon answers."""
 from __future__ import annotations
 
-import http.server
 import json
 import re
 import shlex
 import shutil
 import subprocess
-import threading
 from pathlib import Path
-from typing import ClassVar
 
 import pytest
+from blueos_rig import BlueOSStub
 
 from blueos import __version__
 from blueos.main import build_parser
@@ -142,43 +140,18 @@ def test_every_gain_preset_is_a_valid_parameter_set():
         assert all(table[k] == v for k, v in params.items()), name
 
 
-class _BlueOS(http.server.BaseHTTPRequestHandler):
-    """BlueOS's ArduPilot manager, as far as the endpoints list goes."""
-
-    endpoints: ClassVar[list] = []
-
-    def do_GET(self):
-        self._reply(200, json.dumps(self.endpoints))
-
-    def do_POST(self):
-        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-        type(self).endpoints = [*self.endpoints, *body]
-        self._reply(201, "null")
-
-    def _reply(self, code: int, text: str) -> None:
-        self.send_response(code)
-        self.send_header("Content-Type", "application/json")
-        self.end_headers()
-        self.wfile.write(text.encode())
-
-    def log_message(self, *args):
-        pass
-
-
 def test_router_endpoint_is_registered_once_through_the_ardupilot_manager():
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _BlueOS)
-    threading.Thread(target=server.serve_forever, daemon=True).start()
-    url = f"http://127.0.0.1:{server.server_address[1]}/ardupilot-manager/v1.0/endpoints"
+    blueos = BlueOSStub()
     try:
-        assert "registered" in register_endpoint(url, 14771)
-        (ep,) = _BlueOS.endpoints
+        assert "registered" in register_endpoint(blueos.url, 14771)
+        (ep,) = blueos.endpoints
         assert (ep["connection_type"], ep["place"], ep["argument"], ep["persistent"]) == ("udpin", "0.0.0.0", 14771,
                                                                                           True)
         assert 3 <= len(ep["name"]) <= 50 and 3 <= len(ep["owner"]) <= 50
-        assert "present" in register_endpoint(url, 14771) and len(_BlueOS.endpoints) == 1    # not twice
+        assert "present" in register_endpoint(blueos.url, 14771) and len(blueos.endpoints) == 1    # not twice
     finally:
-        server.shutdown()
-    assert "not reachable" in register_endpoint(url, 14771)
+        blueos.close()
+    assert "not reachable" in register_endpoint(blueos.url, 14771)
 
 
 def test_the_image_builds_where_a_docker_daemon_answers():
