@@ -67,4 +67,4 @@ def _check_within_limits(start: dict, end: dict) -> None:
           f"{LOOP_HZ:g} Hz; RSS {end['rss_mb']:.0f} MB")
     assert ticks > 100
     assert share < 0.5 * host["CpuQuota"] / host["CpuPeriod"], share
-    assert end["rss_mb"] * 2**20 < 0.5 * host["Memory"], end["rss_mb"]
+    assert end["rss_mb"] * 2**20 < 0.6 * host["Memory"], end["rss_mb"]

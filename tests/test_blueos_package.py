@@ -166,3 +166,12 @@ def test_the_image_builds_where_a_docker_daemon_answers():
                                         check=True).stdout)
     assert inspect[0]["Config"]["Labels"]["permissions"].strip().startswith("{")
     assert json.loads(inspect[0]["Config"]["Labels"]["permissions"]) == json.loads(labels()["permissions"])
+
+
+def test_the_readme_gives_the_owner_the_image_s_own_permissions_and_build_commands():
+    readme = (ROOT / "blueos" / "README.md").read_text()
+    block = re.search(r"Original settings.*?```json\n(.*?)```", readme, re.S)
+    assert block and json.loads(block.group(1)) == json.loads(labels()["permissions"])
+    assert "docker build -f blueos/Dockerfile -t wavekeep/blueos-wavekeep:" + __version__ in readme
+    assert "--platform linux/arm/v7,linux/arm64/v8,linux/amd64" in readme
+    assert "metadata.json" in readme and "extension_logo.png" in readme
