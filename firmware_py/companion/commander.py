@@ -22,7 +22,8 @@ Methods (``docs/companion.md``):
   drive only outputs set to motors).
 
 Safety: the companion never arms and never changes mode. It engages only when
-it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed),
+it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed)
+(and, with ``permit_required``, in a tick its host allowed: the BlueOS page's Engage),
 and releases — at once, from the message that told it, so within one tick — on
 any mode change or disarm, on stale telemetry (``stale_s`` of wall time without
 ATTITUDE), when it has itself stood still that long (frozen, then resumed), on
