@@ -100,7 +100,7 @@ class CompanionService:
         self._pending: _Request | None = None
         self._last_tick = -math.inf
         self.ticks = 0                          # control ticks of this process (every session)
-        self._forecast_seen = (0, -math.inf)    # (offers counted, wall s of the newest)
+        self.forecast_seen = (0, -math.inf)    # (offers counted, wall s of the newest)
         self._thread: threading.Thread | None = None
         self.before_session: Callable[[], None] | None = None
 
@@ -206,8 +206,8 @@ class CompanionService:
                 break
             self._handle(req)
         offered = self.fw.forecast.offered
-        if offered != self._forecast_seen[0]:
-            self._forecast_seen = (offered, time.monotonic())
+        if offered != self.forecast_seen[0]:
+            self.forecast_seen = (offered, time.monotonic())
         for records in (c.latency_s, c.answered_ms, c.sent, c.events):
             if len(records) > 2 * KEEP_RECORDS:
                 del records[:-KEEP_RECORDS]

@@ -46,7 +46,7 @@ def _forecast(service, now: float) -> dict[str, Any]:
     if fw is None or not settings.needs_forecast:
         return out
     last, newest = fw.last, fw.forecast.newest()
-    seen = service._forecast_seen[1]
+    seen = service.forecast_seen[1]
     out["age_s"] = _num(now - seen, 1) if newest is not None and math.isfinite(seen) else None
     out["ok"] = bool(newest is not None and last is not None and newest.is_valid_at(last.t))
     if last is not None:

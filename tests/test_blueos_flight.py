@@ -42,6 +42,14 @@ def test_engage_and_release_from_the_page_and_the_pilot_takes_it_back(world):
         assert ext.call("POST", "v1/engage") == (200, {"ok": True, "message": "engaged"})
         s = ext.wait(lambda s: s["control"]["errors"] is not None, 5, "errors")
         assert s["control"]["engaged"] and s["control"]["law"] == "C-PD"
+        # a bad form value, and any change while engaged: refused with the reason, the control task flies on
+        code, body = ext.call("PUT", "v1/settings", {"law": "pid"})
+        assert code == 400 and "law 'pid'" in body["error"]
+        code, body = ext.call("PUT", "v1/settings", {"method": "servo"})
+        assert code == 400 and "release" in body["error"]
+        ticks = ext.status()["process"]["ticks"]
+        s = ext.wait(lambda s: s["process"]["ticks"] > ticks + 10, 5, "ticking")
+        assert s["control"]["engaged"] and s["settings"]["method"] == "rc"
         assert ext.call("POST", "v1/release") == (200, {"ok": True, "message": "released"})
         s = ext.wait(lambda s: not s["control"]["engaged"], 5, "released")
         assert "WK: released overrides (released from the page)" in s["events"]
@@ -76,7 +84,9 @@ def test_a_missing_forecast_never_engages_and_a_forecast_over_zenoh_flies_the_fe
         assert s["forecast"]["age_s"] is not None and s["forecast"]["age_s"] < 2.0
         assert s["control"]["law"] == "C-PD+FF" and len(s["forecast"]["skill"]) == 3
         vehicle.mode(STABILIZE)                              # the session started armed: the pilot selects MANUAL
+        ext.wait(lambda s: s["link"]["mode"] == "STABILIZE", 5, "STABILIZE seen")
         vehicle.mode(19)
+        ext.wait(lambda s: s["link"]["mode"] == "MANUAL", 5, "MANUAL seen")
         assert ext.call("POST", "v1/engage") == (200, {"ok": True, "message": "engaged"})
         ext.wait(lambda s: s["forecast"]["ff_active"], 10, "the feed-forward")
     finally:
