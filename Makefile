@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[test,lint,view]'
+	$(BIN)/pip install --quiet -e '.[test,lint,view,blueos]'
 	# The real-browser test of the view (tests/test_view_browser.py, skipped where either cannot install):
 	# Debian's Chromium, driven by Playwright's Python client (it drives /usr/bin/chromium; no browser download)
 	-command -v chromium >/dev/null || (apt-get install -y chromium >/dev/null 2>&1 || \
@@ -43,7 +43,7 @@ test-fast: $(STAMP)
 
 # ruff (style and bugs), mypy (types), import-linter (the layers of docs/architecture.md)
 lint: $(STAMP)
-	$(BIN)/ruff check firmware_py sitl bridge tests benchmarks
+	$(BIN)/ruff check firmware_py sitl bridge blueos tests benchmarks
 	$(BIN)/mypy
 	$(BIN)/lint-imports
 

@@ -8,7 +8,7 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("bridge", "firmware_py", "sitl")
+PACKAGES = ("bridge", "firmware_py", "sitl", "blueos")
 MAX_FILE_LINES = 500
 MAX_FUNCTION_LINES = 80
 

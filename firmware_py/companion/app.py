@@ -26,7 +26,7 @@ from pathlib import Path
 
 from ..app import parse_set_arg
 
-__all__ = ["companion_overrides", "main"]
+__all__ = ["build_parser", "check_vehicle", "companion_overrides", "main", "run"]
 
 STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
 
@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _check_vehicle(link, method: str, timeout: float = 10.0) -> None:
+def check_vehicle(link, method: str, timeout: float = 10.0) -> None:
     """Refuse a vehicle that is not a BlueROV2 Heavy on ArduSub, or whose outputs the method cannot use."""
     from .autopilot import VehicleIdentityError
     from .commander import MOTOR_FUNCTIONS, PASSTHROUGH_FUNCTIONS, set_output_functions
@@ -135,14 +135,14 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(sig, lambda *_: stop.set())
     link = AutopilotLink(args.autopilot, args.target_system, args.sysid, args.compid)
     try:
-        _check_vehicle(link, args.method, args.identity_timeout)
+        check_vehicle(link, args.method, args.identity_timeout)
     except VehicleIdentityError as exc:
         print(f"wavekeep companion: refused: {exc}", file=sys.stderr, flush=True)
         link.statustext(3, "WK: companion refused this vehicle")
         link.close()
         return 3
     try:
-        return _run(args, link, stop)
+        return run(args, link, stop)
     finally:
         link.close()
 
@@ -211,20 +211,25 @@ def _depth_noise(args, link) -> float | None:
     return None if rnd is None or rnd <= 0 else rnd / math.sqrt(3.0)
 
 
-def _run(args, link, stop) -> int:
+def run(args, link, stop, attach=None) -> int:
+    """Fly until ``stop`` is set: build the control task on ``link`` (a vehicle :func:`check_vehicle` accepted),
+    wait for the first forecast (``--forecast zenoh``), then the 20 Hz loop; release on the way out.
+
+    ``attach(fw, commander)``, when given, is called once both are built (before the forecast wait) and returns
+    the tasks (``Task``) to run each tick just before the commander's gate: how a host (the BlueOS extension)
+    watches and steers the companion from the scheduler's own thread."""
     from ..firmware import tick_row
     from ..hal.scheduler import Task, settle_for_loop
     from .hal_mavlink import AutopilotClock
     fw, commander, clock, rate = _build(args, link, stop)
+    extra = list(attach(fw, commander)) if attach is not None else []
     rows: list[list[float]] = []
     if args.log:
         fw.on_tick = lambda r: rows.append([r.t, *tick_row(r)])
     session = forecast_link = None
     if args.forecast == "zenoh":
         session, forecast_link = _open_forecast(args, fw)
-        while fw.forecast.newest() is None and not stop.is_set():
-            forecast_link.poll()
-            link.pump(0.05)
+        _wait_forecast(fw, forecast_link, link, stop)
     last_hb = [0.0]
 
     def after(_slot_ns: int) -> None:
@@ -234,6 +239,7 @@ def _run(args, link, stop) -> int:
             last_hb[0] = time.monotonic()
             link.heartbeat()
     fw.tasks.insert(0, Task("gate", rate, commander.gate))
+    fw.tasks[0:0] = extra
     if forecast_link is not None:
         fw.tasks.insert(0, Task("forecast", rate, forecast_link.poll))
     fw.tasks.append(Task("companion", rate, after))
@@ -251,6 +257,23 @@ def _run(args, link, stop) -> int:
         _close(forecast_link, session)
         _write_stats(args, fw, commander, link, rows)
     return 0
+
+
+FORECAST_WAIT_SAY_S = 10.0
+"""s of wall time between the STATUSTEXTs that say the companion is still waiting for its first forecast."""
+
+
+def _wait_forecast(fw, forecast_link, link, stop) -> None:
+    """Until the first forecast arrives (or ``stop``): nothing engages meanwhile, and the pilot's ground station
+    is told why every :data:`FORECAST_WAIT_SAY_S` (a forecast link that never comes is a missing link)."""
+    said = -math.inf
+    while fw.forecast.newest() is None and not stop.is_set():
+        if time.monotonic() - said >= FORECAST_WAIT_SAY_S:
+            said = time.monotonic()
+            link.statustext(4, "WK: no wave forecast yet: not engaging")
+            print("wavekeep companion: waiting for the wave forecast", flush=True)
+        forecast_link.poll()
+        link.pump(0.05)
 
 
 def _open_forecast(args, fw):

@@ -22,7 +22,8 @@ Methods (``docs/companion.md``):
   drive only outputs set to motors).
 
 Safety: the companion never arms and never changes mode. It engages only when
-it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed),
+it has seen the pilot arm the vehicle in MANUAL (or select MANUAL while armed)
+(and, with ``permit_required``, in a tick its host allowed: the BlueOS page's Engage),
 and releases — at once, from the message that told it, so within one tick — on
 any mode change or disarm, on stale telemetry (``stale_s`` of wall time without
 ATTITUDE), when it has itself stood still that long (frozen, then resumed), on
@@ -111,6 +112,10 @@ class Commander:
         self._last_gate = time.monotonic()   # wall time of the last gate (a tick about to run)
         self._motors_due: float | None = None     # servo, released: when to restore the motors (wall s)
         self._release_due: float | None = None    # then when to release the neutral-held inputs (wall s)
+        # A host that must say yes first (the BlueOS extension's Engage): with permit_required, the gate engages
+        # only in a tick where permitted is True (the host sets it for one tick, from the scheduler's thread)
+        self.permit_required = False
+        self.permitted = False
         link.on_mode_change = self.on_mode_change
 
     # ------------------------------------------------------------------ safety
@@ -118,7 +123,8 @@ class Commander:
         """Every HEARTBEAT that changes arming or mode: release at once unless it is still armed in MANUAL."""
         if armed and mode == MANUAL:
             self.selected = True
-            self.say(6, "WK: MANUAL armed by pilot: engaging")
+            self.say(6, "WK: MANUAL armed by pilot: " + ("engage it from the page" if self.permit_required
+                                                           else "engaging"))
         elif self.engaged or self.selected:
             why = "disarmed" if not armed else f"pilot selected {SUB_MODES.get(mode or 0, mode)}"
             self.selected = False
@@ -145,7 +151,8 @@ class Commander:
         elif self.engaged and not fresh:
             self.selected = False
             self.release(f"stale telemetry, ATTITUDE {self._attitude_age():.1f} s old")
-        elif not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL:
+        elif (not self.engaged and self.selected and fresh and st.armed and st.mode == MANUAL
+              and (self.permitted or not self.permit_required)):
             self._engage()
 
     def _hold_every_axis(self) -> None:
