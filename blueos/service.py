@@ -29,7 +29,7 @@ import yaml
 
 from firmware_py.companion.app import build_parser, check_vehicle, run
 from firmware_py.companion.autopilot import MANUAL, SUB_MODES, AutopilotLink, VehicleIdentityError
-from firmware_py.scheduler import Task
+from firmware_py.hal.scheduler import Task
 
 from .settings import Settings, SettingsError, SettingsStore, gain_presets
 

@@ -18,7 +18,7 @@ from blueos import __version__
 from blueos.main import build_parser
 from blueos.router import register_endpoint
 from blueos.settings import Settings, SettingsError, SettingsStore, gain_presets
-from firmware_py.params import load_params
+from firmware_py.params.table import load_params
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCKERFILE = ROOT / "blueos" / "Dockerfile"
