@@ -21,3 +21,15 @@ def pytest_collection_modifyitems(config, items):
         weight[_file_of(item)] = weight.get(_file_of(item), 0) + bool(item.get_closest_marker("processes"))
     order = {f: i for i, f in enumerate(dict.fromkeys(map(_file_of, items)))}
     items.sort(key=lambda it: (-weight[_file_of(it)], order[_file_of(it)]))
+
+
+def pytest_configure(config):
+    """Once, in the process that hands the tests to ``make test``'s workers (or runs them itself), before any test:
+    compile the models' kernels into numba's cache. On a fresh clone the cache is empty, and every worker and
+    every process a test starts would otherwise compile the same kernels at once, on two cores."""
+    if hasattr(config, "workerinput"):
+        return
+    from bridge.models import horizon_kernels, kernels, kernels6
+    kernels.warm_up()
+    horizon_kernels.warm_up()
+    kernels6.warm_up6()
