@@ -139,6 +139,17 @@ class RouterStandIn:
             if m.get_type() == "STATUSTEXT":
                 self.texts.append(m.text)
 
+    def said(self, match, timeout: float = 5.0) -> bool:
+        """Has a STATUSTEXT the extension sent matched ``match`` (a predicate on its text), waiting up to
+        ``timeout`` s of wall time for it (it is relayed by this stand-in's thread, after the call that caused it)?"""
+        end = time.monotonic() + timeout
+        while True:
+            if any(match(text) for text in list(self.texts)):
+                return True
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.05)
+
     def close(self) -> None:
         self._stop.set()
         self._thread.join(2)

@@ -370,7 +370,7 @@ def test_commands_missions_and_parameter_sets(pair: Pair):
                                    ("PARAM_SET unknown name", "NO_SUCH_PARAM", 1.0)):
             since = gs.mark()
             gs.send(M.MAVLink_param_set_message(1, 1, name.encode(), value, M.MAV_PARAM_TYPE_REAL32))
-            msgs = v.wait(1.0)
+            msgs = v.wait(2.0)            # an answer comes within a tick; 2 s leave room for a loaded machine
             pv = [m for m in msgs if m.get_type() == "PARAM_VALUE" and m.param_id == name]
             out[label] = {"texts": texts(msgs),
                           "answer": None if not pv else [round(pv[-1].param_value, 4), pv[-1].param_index

@@ -47,8 +47,8 @@ def test_the_extension_flies_the_real_ardusub_engaged_from_the_page_and_hands_ba
         rig.arm(False)                                                                            # the pilot
         s = ext.wait(lambda s: not s["control"]["engaged"], 5, "the hand-back")
         assert "WK: released overrides (disarmed)" in s["events"]
-        assert any(t.startswith("WK: engaged (rc)") for t in router.texts)
-        assert any(t == "WK: released overrides (disarmed)" for t in router.texts), router.texts
+        assert router.said(lambda t: t.startswith("WK: engaged (rc)")), router.texts
+        assert router.said(lambda t: t == "WK: released overrides (disarmed)"), router.texts
     finally:
         if ext is not None:
             assert ext.stop() == 0, ext.log()

@@ -36,7 +36,7 @@ def test_engage_and_release_from_the_page_and_the_pilot_takes_it_back(world):
         ext.wait(_ready, 60, "the link")
         code, body = ext.call("POST", "v1/engage")
         assert code == 409 and "disarmed" in body["message"]                      # never engages disarmed
-        assert any("WK: not engaged: the vehicle is disarmed" in t for t in router.texts), router.texts
+        assert router.said(lambda t: "WK: not engaged: the vehicle is disarmed" in t), router.texts
         vehicle.arm()
         ext.wait(lambda s: s["link"]["armed"], 10, "armed")
         assert ext.call("POST", "v1/engage") == (200, {"ok": True, "message": "engaged"})
@@ -59,7 +59,7 @@ def test_engage_and_release_from_the_page_and_the_pilot_takes_it_back(world):
         assert "WK: released overrides (pilot selected STABILIZE)" in s["events"]
         code, body = ext.call("POST", "v1/engage")
         assert code == 409 and "select MANUAL" in body["message"]
-        assert any(t.startswith("WK: engaged (rc)") for t in router.texts)
+        assert router.said(lambda t: t.startswith("WK: engaged (rc)")), router.texts
     finally:
         assert ext.stop() == 0, ext.log()
     assert "stopped after" in ext.log()
@@ -78,7 +78,7 @@ def test_a_missing_forecast_never_engages_and_a_forecast_over_zenoh_flies_the_fe
         vehicle.arm()
         code, body = ext.call("POST", "v1/engage")
         assert code == 409, body
-        assert any(t.startswith(("WK: companion stopped", "WK: no wave forecast")) for t in router.texts), router.texts
+        assert router.said(lambda t: t.startswith(("WK: companion stopped", "WK: no wave forecast"))), router.texts
         publisher = ForecastPublisher(endpoint)
         s = ext.wait(lambda s: s["forecast"]["ok"] and s["headline"].startswith("ready"), 60, "the forecast")
         assert s["forecast"]["age_s"] is not None and s["forecast"]["age_s"] < 2.0
