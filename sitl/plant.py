@@ -127,10 +127,10 @@ class Plant:
         self.B6 = layout.wrench_matrix()     # 6×8: thrusts → [X, Y, Z, K, M, N]
         self.B = layout.allocation_matrix()  # 3×8: thrusts → [X, Z, M]
         self.state = PlantState()
-        self.tau_E6 = np.zeros(6)       # wave load at the end of the last step (six DoF; planar world: X, Z, M)
-        self.tau6 = np.zeros(6)         # thruster load at the end of the last step
-        self.nu_dot6 = np.zeros(6)      # body acceleration at the end of the last step
-        self.tau_E = np.zeros(3)        # ... their planar parts [X, Z, M], [u̇, ẇ, q̇]
+        self.tau_E6 = np.zeros(6)       # six-DoF world: wave load at the end of the last step
+        self.tau6 = np.zeros(6)         # six-DoF world: thruster load at the end of the last step
+        self.nu_dot6 = np.zeros(6)      # six-DoF world: body acceleration at the end of the last step
+        self.tau_E = np.zeros(3)        # either world: the planar parts [X, Z, M], [u̇, ẇ, q̇]
         self.tau = np.zeros(3)
         self.nu_dot = np.zeros(3)
         self.current_x = sea.current_x  # steady current's in-plane component (m/s, NED north): the planar world's
@@ -263,7 +263,6 @@ class Plant:
         z = float(s.eta6[2])
         wet = 1.0 if z >= 0.5 * self.vehicle.height else submerged_fraction(self.vehicle, z)
         (self._step_planar if self.body6 is None else self._step_six)(f_cmd, dt, wet)
-        self.tau_E, self.tau, self.nu_dot = self.tau_E6[_P], self.tau6[_P], self.nu_dot6[_P]
         self._update_pressure()
         return self.state
 
@@ -304,9 +303,9 @@ class Plant:
         tau = self.B @ f if wet == 1.0 else (self.B @ f) * wet
         u, w, q = x[3:].tolist()
         in_flow, still = hydrodynamic_load_terms(p, u, w, q, flow, 2), hydrodynamic_load_terms(p, u, w, q, None)
-        self.tau_E6 = _six([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
-        self.tau6 = _six(tau)
-        self.nu_dot6 = _six(state_rates_at(p, x, tau, flow, 2)[3:])
+        self.tau_E = np.array([in_flow[0] - still[0], in_flow[1] - still[1], in_flow[2] - still[2]])
+        self.tau = tau
+        self.nu_dot = state_rates_at(p, x, tau, flow, 2)[3:]
 
     def _step_six(self, f_cmd: np.ndarray, dt: float, wet: float) -> None:
         """The six-DoF world's step: the same thrusters and lag through the 6 × 8 wrench matrix, the body in
@@ -321,6 +320,7 @@ class Plant:
         nu = x[6:]
         self.tau_E6 = body.load(nu, flow, 2) - body.load(nu, None)
         self.nu_dot6 = body.rates(x, self.tau6, flow, 2)[6:]
+        self.tau_E, self.tau, self.nu_dot = self.tau_E6[_P], self.tau6[_P], self.nu_dot6[_P]
 
     def _motor_lags(self, dt: float, stage: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """The motor-lag factors e^{−s/t_m} of :func:`motor_lag_stages` at each substep's stage times and at

@@ -4,7 +4,8 @@ Each tick (docs/mpc.md has the equations and the measurements behind the choices
 
 1. **The horizon.** N steps: the control period h first (the command being sent), then ``WK_MPC_DT``
    each. The forecast's flow at the body's strips is taken at every step's RK4 stage times, at the pose
-   the command meets (:func:`~bridge.models.vehicle.body_flow`), weighted per axis by the feed-forward's
+   the command meets (:func:`~bridge.models.horizon.horizon_flow`: the forecast's time phases at the
+   horizon's instants built once per forecast), weighted per axis by the feed-forward's
    monitor and skill (:func:`~firmware_py.control.feedforward.skill_weighted_flow`) and zero past the
    forecast's validity; with no forecast, or one set aside, the horizon sees still water.
 2. **The nominal plan** is the last plan shifted by a tick (interpolated onto the new step times), or
@@ -14,7 +15,7 @@ Each tick (docs/mpc.md has the equations and the measurements behind the choices
    (:func:`~bridge.models.horizon.linearise_horizon`): a linear time-varying model.
 3. **The QP** (:mod:`.mpc_qp`): the state error, the effort off trim and its change, subject to the
    thrusters' limits on every step's command (the allocation's wrench polytope at ``WK_THR_MAX``,
-   :mod:`firmware_py.control.wrench_limits`), solved by OSQP warm-started on the last duals. Pitch keeps its
+   :mod:`firmware_py.control.wrench_limits`), solved by DAQP warm-started on the last active set. Pitch keeps its
    priority through its weight: the optimiser gives up heave before pitch when they compete for the
    vertical thrusters, and the first demand lies inside the limits, so the mixer never has to choose.
 4. **The firmware's discipline.** The robust feed-forward's command (:class:`~.cpd.CascadedPD`) is
