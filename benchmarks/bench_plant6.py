@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks.common import percentiles_us, timed, write
-from sitl.body6 import Body6
+from bridge.models.body6 import Body6
 from sitl.plant import Plant
 from sitl.sea import Sea
 

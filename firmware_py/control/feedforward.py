@@ -35,6 +35,7 @@ without feed-forward.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -48,10 +49,11 @@ from bridge.models.vehicle import (
 
 from ..estimation.inertial_velocity import InertialVelocity
 from ..hal.sensors import SensorFrame
+from ..modes import MAV_SEVERITY
 from ..numerics.floats import clip_float, ratio, sqrt
 from ..params.table import ParameterTable
 
-__all__ = ["FF_MODES", "FeedForwardOutput", "WaveFeedForward", "skill_weighted_flow"]
+__all__ = ["FF_MODES", "FadeNotices", "FeedForwardOutput", "WaveFeedForward", "skill_weighted_flow"]
 
 Vec3 = tuple[float, float, float]
 """Three per-axis floats [X (N), Z (N), M (N m)] (or [u, w, q]): the robust law's per-tick arithmetic runs on
@@ -379,3 +381,29 @@ class WaveFeedForward:
             self._aside_left = min(600.0, 4.0 * tc * 2.0 ** (self.set_aside - 1))
         elif self.distrusted and self._aside_left <= 0.0 and self.trust > 0.75:
             self.distrusted = False
+
+
+class FadeNotices:
+    """What the pilot is told of the FF monitor (``say(severity, text)``: STATUSTEXT): an axis faded below half
+    weight, all of them recovered; the forecast set aside (``WK_FF_TRUST_TC``) or trusted again."""
+
+    def __init__(self, say: Callable[[int, str], None]):
+        self.say = say
+        self.faded = False
+        self.aside = False
+
+    def update(self, distrusted: bool, weight: np.ndarray) -> None:
+        """This tick's monitor state: the forecast set aside, and the weights [X, Z, M]."""
+        if distrusted != self.aside:
+            self.aside = distrusted
+            self.say(MAV_SEVERITY.WARNING if distrusted else MAV_SEVERITY.INFO,
+                     "FF off: forecast set aside" if distrusted else "FF: forecast trusted again")
+        faded = bool((weight < 0.5).any())
+        if faded and not self.faded:
+            axes = ",".join(a for a, w in zip("XZM", weight, strict=True) if w < 0.5)
+            self.say(MAV_SEVERITY.WARNING, f"FF faded {axes}: forecast disagrees")
+        elif not faded and self.faded and (weight > 0.9).all():
+            self.say(MAV_SEVERITY.INFO, "FF restored")
+        else:
+            return
+        self.faded = faded

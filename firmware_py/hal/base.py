@@ -77,8 +77,11 @@ class InProcessSITLHAL(HAL):
         nu_dot = getattr(self.plant, "nu_dot", None)     # the plant's body acceleration, if it keeps one
         g = getattr(getattr(self.plant, "vehicle", None), "g", None)
         accel = None if nu_dot is None or g is None else specific_force(s.eta, s.nu, nu_dot, g)
-        # A plant that models the depth sensor's dynamic pressure says what the sensor reads (m)
-        return self.sensors.read(s.t, s.eta, s.nu, accel, getattr(self.plant, "pressure_depth", None))
+        # A plant that models the depth sensor's dynamic pressure says what the sensor reads (m); one that moves
+        # in six DoF gives the lateral channels their truth
+        lateral_of = getattr(self.plant, "lateral_state", None)
+        lateral = lateral_of() if lateral_of is not None else None
+        return self.sensors.read(s.t, s.eta, s.nu, accel, getattr(self.plant, "pressure_depth", None), lateral)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.last_pwm = np.array(pwm, dtype=np.int64)

@@ -60,6 +60,7 @@ class JSONState:
     frame_count: int | None      # the servo frame this answers, when the server says
     accel: np.ndarray | None = None   # specific force [f_x, f_z] (m/s², body FRD): the IMU's imu.accel_body
     pressure_depth: float | None = None   # p/(ρ g) (m) the depth sensor reads, when the world models it
+    lateral: np.ndarray | None = None     # a six-DoF world's [y, φ, ψ, v, p, r] (m, rad, m/s, rad/s)
 
 
 @dataclass
@@ -182,7 +183,7 @@ class JSONSITLHAL(HAL):
             t = self.clock.now_ns() * 1e-9
             nan = math.nan
             return SensorFrame(t, nan, nan, nan, nan, healthy=False)
-        return self.sensors.read(s.t, s.eta, s.nu, s.accel, s.pressure_depth)
+        return self.sensors.read(s.t, s.eta, s.nu, s.accel, s.pressure_depth, s.lateral)
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         """Send the next servo frame and wait for the world to answer it (bounded)."""
@@ -266,7 +267,8 @@ class JSONSITLHAL(HAL):
             self._offset = prev.t - ts
             self.counters.physics_resets += 1
         t = ts + self._offset
-        self.state = JSONState(t, ts, reply.eta, reply.nu, reply.thrust, count, reply.accel, reply.pressure_depth)
+        self.state = JSONState(t, ts, reply.eta, reply.nu, reply.thrust, count, reply.accel, reply.pressure_depth,
+                               reply.lateral)
         self.silent = False
         self.counters.replies += 1
         if self._simulated_clock():

@@ -17,10 +17,15 @@ Sensors (paper §IV: sensor noise on, EKF in the loop; the paper gives no values
   ``SIM_DVL_RATE`` Hz, only while the altitude ``SIM_WATER_DEPTH`` − depth is within
   [``SIM_DVL_ALT_MIN``, ``SIM_DVL_ALT_MAX``], and a ping lost with probability ``SIM_DVL_DROP``;
 * the accelerometer's specific force [f_x, f_z] (m/s², body FRD) every tick, when the
-  HAL knows the body's acceleration (the in-process plant's ν̇; JSON SITL's ``imu.accel_body``).
+  HAL knows the body's acceleration (the in-process plant's ν̇; JSON SITL's ``imu.accel_body``);
+* in a world that moves in all six DoF, the lateral-directional channels: the position fix's
+  east y (m, with x), the AHRS's roll φ and heading ψ (rad) and the gyro's roll and yaw rates
+  p, r (rad/s), every tick. A planar world has none (NaN): the firmware then holds the vertical
+  plane only.
 
 The DVL and accelerometer draw their noise from a second stream seeded from the same
-seed, so the first four channels' noise is the same as without them.
+seed, and the lateral channels from a third, so the first four channels' noise is the same
+as without them.
 docs/estimator.md gives each sensor's source.
 """
 from __future__ import annotations
@@ -35,11 +40,17 @@ from bridge.models.waves import WaveComponents, pressure_head
 from ..params.table import ParameterTable
 
 __all__ = ["ATM_PA", "RHO_SEAWATER", "SensorFrame", "SimulatedSensors", "depth_to_pressure", "specific_force",
-           "wave_corrected_depth"]
+           "wave_corrected_depth", "wrap_angle"]
 
 ATM_PA = 101325.0          # Pa at the surface
 RHO_SEAWATER = 1025.0      # kg/m³
 G0 = 9.80665               # m/s², as pressure-to-depth conversions use
+
+
+def wrap_angle(a: float) -> float:
+    """An angle (rad) wrapped to (−π, π]."""
+    w = math.remainder(a, 2.0 * math.pi)
+    return math.pi if w == -math.pi else w
 
 
 def depth_to_pressure(depth_m: float) -> float:
@@ -89,6 +100,15 @@ class SensorFrame:
     dvl_w: float = math.nan    # m/s, body heave velocity over ground
     acc_x: float = math.nan    # m/s², specific force, body x (forward)
     acc_z: float = math.nan    # m/s², specific force, body z (down)
+    y: float = math.nan          # m, NED east (the position fix's other coordinate; six-DoF world)
+    roll: float = math.nan       # rad, AHRS roll φ
+    roll_rate: float = math.nan  # rad/s, gyro p
+    yaw: float = math.nan        # rad, AHRS heading ψ, in (−π, π]
+    yaw_rate: float = math.nan   # rad/s, gyro r
+
+    def lateral_readings(self) -> list[float]:
+        """The lateral-directional estimator's channels in its order: [y, φ, ψ, p, r] (NaN where missing)."""
+        return [self.y, self.roll, self.yaw, self.roll_rate, self.yaw_rate]
 
     def readings(self, aided: bool = False) -> list[float]:
         """The estimator's channels in its order: [x, depth, θ, q] and, ``aided``, the DVL's and the
@@ -116,12 +136,14 @@ class _SimParams:
     gyro_rnd: float      # rad/s
     dvl_rnd: float       # m/s
     acc_rnd: float       # m/s²
+    yaw_rnd: float       # rad
 
     @classmethod
     def of(cls, p: ParameterTable) -> _SimParams:
         return cls(p["SIM_POS_RATE"], p["SIM_DEPTH_RATE"], p["SIM_DVL_RATE"], p["SIM_DVL_ALT_MIN"],
                    p["SIM_DVL_ALT_MAX"], p["SIM_WATER_DEPTH"], p["SIM_DVL_DROP"], p["SIM_POS_RND"],
-                   p["SIM_DEPTH_RND"], p["SIM_PITCH_RND"], p["SIM_GYRO_RND"], p["SIM_DVL_RND"], p["SIM_ACC_RND"])
+                   p["SIM_DEPTH_RND"], p["SIM_PITCH_RND"], p["SIM_GYRO_RND"], p["SIM_DVL_RND"], p["SIM_ACC_RND"],
+                   p["SIM_YAW_RND"])
 
 
 class SimulatedSensors:
@@ -131,6 +153,7 @@ class SimulatedSensors:
         self.params = params
         self.rng = np.random.default_rng(seed)
         self.rng_aid = np.random.default_rng([int(seed) % 2**63, 0xD71])   # DVL and accelerometer
+        self.rng_lat = np.random.default_rng([int(seed) % 2**63, 0x1A7])   # the lateral-directional channels
         self._last_slot = {"pos": -1, "depth": -1, "dvl": -1}
 
     def _sim_params(self) -> _SimParams:
@@ -151,10 +174,13 @@ class SimulatedSensors:
         p = self._sim_params()
         return p.dvl_alt_min <= p.water_depth - depth <= p.dvl_alt_max
 
-    def read(self, t: float, eta, nu, accel=None, pressure_depth: float | None = None) -> SensorFrame:
+    def read(self, t: float, eta, nu, accel=None, pressure_depth: float | None = None,
+             lateral=None) -> SensorFrame:
         """Sample the sensors at time t (s) for truth η = [x, z, θ], ν = [u, w, q] and, when known,
         the specific force ``accel`` = [f_x, f_z] (m/s², :func:`specific_force`). ``pressure_depth``
-        (m), when given, is what the pressure sensor sees instead of the true depth z (dynamic pressure)."""
+        (m), when given, is what the pressure sensor sees instead of the true depth z (dynamic pressure).
+        ``lateral``, in a six-DoF world, is the truth's lateral-directional part [y, φ, ψ, v, p, r]
+        (m, rad, m/s, rad/s; :data:`bridge.models.motion6.LATERAL_DOFS`); None leaves those channels NaN."""
         p = self._sim_params()
         # Draw every channel every tick so the noise sequence is independent of rates. The arithmetic runs
         # on Python floats (the same IEEE operations as on numpy's scalars, at a fraction of the cost).
@@ -165,6 +191,8 @@ class SimulatedSensors:
         dvl = (self._due("dvl", t, p.dvl_rate) and self.dvl_in_range(float(eta[1]))
                and 0.5 * (1.0 + math.erf(a4 / math.sqrt(2.0))) >= p.dvl_drop)
         acc = accel is not None and all(map(math.isfinite, accel))
+        y, roll, yaw, roll_rate, yaw_rate = (self._lateral(p, fix, lateral) if lateral is not None
+                                             else (math.nan,) * 5)
         return SensorFrame(
             t=t,
             x=float(eta[0] + p.pos_rnd * n0) if fix else math.nan,
@@ -176,4 +204,13 @@ class SimulatedSensors:
             dvl_w=float(nu[1] + p.dvl_rnd * a1) if dvl else math.nan,
             acc_x=float(accel[0] + p.acc_rnd * a2) if acc else math.nan,
             acc_z=float(accel[1] + p.acc_rnd * a3) if acc else math.nan,
+            y=y, roll=roll, roll_rate=roll_rate, yaw=yaw, yaw_rate=yaw_rate,
         )
+
+    def _lateral(self, p: _SimParams, fix: bool, lateral) -> tuple[float, float, float, float, float]:
+        """The lateral channels' readings [y, φ, ψ, p, r] of the truth [y, φ, ψ, v, p, r]: y with the position fix,
+        the rest every tick; the heading wrapped to (−π, π] as an AHRS reports it."""
+        m0, m1, m2, m3, m4 = self.rng_lat.standard_normal(5).tolist()
+        y, phi, psi, _, p_rate, r_rate = (float(v) for v in lateral)
+        return (y + p.pos_rnd * m0 if fix else math.nan, phi + p.pitch_rnd * m1, wrap_angle(psi + p.yaw_rnd * m2),
+                p_rate + p.gyro_rnd * m3, r_rate + p.gyro_rnd * m4)

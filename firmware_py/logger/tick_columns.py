@@ -30,5 +30,8 @@ TICK_COLUMNS = (
     + ["sigma_u", "sigma_w", "sigma_q", "dhat_X", "dhat_Z", "dhat_M", "tau_dob_X", "tau_dob_Z", "tau_dob_M"]
     + ["nis", "nis_dof", "prv_x", "prv_z", "ff_skill_X", "ff_skill_Z", "ff_skill_M"]
     + ["ctrl_status", "ctrl_iter", "ctrl_ms"]     # the law's solver: SolveStatus, iterations, compute (ms)
+    # the lateral-directional plane (six-DoF vehicle; NaN while it is not estimated): estimate, target, commands
+    + ["y_hat", "phi_hat", "psi_hat", "v_hat", "p_hat", "r_hat", "sp_y", "sp_psi"]
+    + ["tau_Y", "tau_K", "tau_N", "tau_ff_Y", "tau_ff_K", "tau_ff_N"]
 )
 """What one tick's record holds, flattened (:func:`tick_row`): estimate, setpoint, commands, PWM."""

@@ -15,7 +15,7 @@ import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 from ..hal.sensors import depth_to_pressure
 from ..modes import AUTO_AXES, GUIDED_GROUP
@@ -164,6 +164,45 @@ def ned_state(snap: TelemetrySnapshot) -> tuple[float, float, float, float, floa
     x, z, th, u, w, q = snap.x_hat[:6]
     c, s = (math.cos(th), math.sin(th)) if math.isfinite(th) else (math.nan, math.nan)
     return x, z, th, u * c + w * s, -u * s + w * c, q
+
+
+class Pose6(NamedTuple):
+    """The estimate as a ground station sees it: NED position (m), zyx Euler angles (rad), NED velocity (m/s)
+    and body rates (rad/s)."""
+
+    x: float
+    y: float
+    z: float
+    roll: float
+    pitch: float
+    yaw: float
+    vn: float
+    ve: float
+    vd: float
+    p: float
+    q: float
+    r: float
+
+
+def pose6(snap: TelemetrySnapshot) -> Pose6:
+    """The six-DoF estimate: with the lateral plane's [y, φ, ψ, v, p, r] when the vehicle has one (the NED velocity
+    R(Θ) [u, v, w]), else the vertical plane's with y, roll, yaw and their rates 0 (:func:`ned_state`'s numbers)."""
+    if not snap.lateral:
+        x, z, th, vn, vd, q = ned_state(snap)
+        return Pose6(x, 0.0, z, 0.0, th, 0.0, vn, 0.0, vd, 0.0, q, 0.0)
+    x, z, th, u, w, q = snap.x_hat[:6]
+    y, phi, psi, v, p, r = snap.lateral[:6]
+    sf, cf, st, ct, sp, cp = (math.sin(phi), math.cos(phi), math.sin(th), math.cos(th), math.sin(psi),
+                              math.cos(psi))
+    vn = cp * ct * u + (cp * st * sf - sp * cf) * v + (sp * sf + cp * cf * st) * w
+    ve = sp * ct * u + (cp * cf + sf * st * sp) * v + (st * sp * cf - cp * sf) * w
+    vd = -st * u + ct * sf * v + ct * cf * w
+    return Pose6(x, y, z, phi, th, psi, vn, ve, vd, p, q, r)
+
+
+def heading_deg(yaw: float) -> float:
+    """A heading (rad) as compass degrees in [0, 360) (0 when not finite)."""
+    return math.degrees(yaw) % 360.0 if math.isfinite(yaw) else 0.0
 
 
 def heartbeat(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -340,42 +379,54 @@ def rc_channels(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def global_position_int(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """GLOBAL_POSITION_INT: the estimate about the WK_ORIGIN_LAT/LON origin (degE7, mm, cm/s)."""
+    """GLOBAL_POSITION_INT: the estimate about the WK_ORIGIN_LAT/LON origin (degE7, mm, cm/s, heading cdeg)."""
     if not snap.has_tick:
         return []
-    x, z, _th, vx, vz, _q = ned_state(snap)
-    lat = snap.origin_lat + math.degrees(x / EARTH_RADIUS_M) if math.isfinite(x) else snap.origin_lat
-    alt_mm = clip_int(-z * 1000.0, -2**31, 2**31 - 1)
+    e = pose6(snap)
+    lat, lon = lat_lon(snap, e.x, e.y)
+    alt_mm = clip_int(-e.z * 1000.0, -2**31, 2**31 - 1)
+    hdg = clip_int(heading_deg(e.yaw) * 100.0, 0, 35999) if snap.lateral else 0
     return [mavlink.MAVLink_global_position_int_message(
         time_boot_ms(snap, link), clip_int(lat * 1e7, -900000000, 900000000),
-        clip_int(snap.origin_lon * 1e7, -1800000000, 1800000000), alt_mm, alt_mm,
-        clip_int(vx * 100.0, -32768, INT16_MAX), 0, clip_int(vz * 100.0, -32768, INT16_MAX), 0)]
+        clip_int(lon * 1e7, -1800000000, 1800000000), alt_mm, alt_mm,
+        clip_int(e.vn * 100.0, -32768, INT16_MAX), clip_int(e.ve * 100.0, -32768, INT16_MAX),
+        clip_int(e.vd * 100.0, -32768, INT16_MAX), hdg)]
+
+
+def lat_lon(snap: TelemetrySnapshot, x: float, y: float) -> tuple[float, float]:
+    """Latitude and longitude (deg) of the NED point (x, y) (m) about the origin (a flat earth over the site)."""
+    lat = snap.origin_lat + math.degrees(x / EARTH_RADIUS_M) if math.isfinite(x) else snap.origin_lat
+    if y == 0.0 or not math.isfinite(y):
+        return lat, snap.origin_lon
+    return lat, snap.origin_lon + math.degrees(y / (EARTH_RADIUS_M * math.cos(math.radians(snap.origin_lat))))
 
 
 def local_position_ned(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """LOCAL_POSITION_NED: x and depth (m), NED velocities (m/s); y is 0 in this 3-DoF vehicle."""
+    """LOCAL_POSITION_NED: position (m) and NED velocities (m/s); y 0 in a planar world."""
     if not snap.has_tick:
         return []
-    x, z, _th, vx, vz, _q = ned_state(snap)
-    return [mavlink.MAVLink_local_position_ned_message(time_boot_ms(snap, link), x, 0.0, z, vx, 0.0, vz)]
+    e = pose6(snap)
+    return [mavlink.MAVLink_local_position_ned_message(time_boot_ms(snap, link), e.x, e.y, e.z, e.vn, e.ve, e.vd)]
 
 
 def attitude(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """ATTITUDE: pitch (rad) and pitch rate (rad/s); roll and yaw are 0."""
+    """ATTITUDE: roll, pitch, yaw (rad) and their body rates (rad/s); roll and yaw 0 in a planar world."""
     if not snap.has_tick:
         return []
-    _x, _z, th, _vx, _vz, q = ned_state(snap)
-    return [mavlink.MAVLink_attitude_message(time_boot_ms(snap, link), 0.0, th, 0.0, 0.0, q, 0.0)]
+    e = pose6(snap)
+    return [mavlink.MAVLink_attitude_message(time_boot_ms(snap, link), e.roll, e.pitch, e.yaw, e.p, e.q, e.r)]
 
 
 def vfr_hud(snap: TelemetrySnapshot, link: LinkState) -> list:
     """VFR_HUD: speed (m/s), throttle (%, 50 neutral, from the heave command), altitude −depth (m), climb (m/s)."""
     if not snap.has_tick:
         return []
-    _x, z, _th, vx, vz, _q = ned_state(snap)
+    e = pose6(snap)
     throttle = clip_int(50.0 - 50.0 * snap.heave_force / snap.tau_max_z, 0, 100, 50)
-    speed = abs(vx) if math.isfinite(vx) else 0.0
-    return [mavlink.MAVLink_vfr_hud_message(speed, speed, 0, throttle, -z, -vz)]
+    speed = math.hypot(e.vn, e.ve) if snap.lateral else abs(e.vn)
+    speed = speed if math.isfinite(speed) else 0.0
+    heading = clip_int(heading_deg(e.yaw), 0, 359) if snap.lateral else 0
+    return [mavlink.MAVLink_vfr_hud_message(speed, speed, heading, throttle, -e.z, -e.vd)]
 
 
 def system_time(snap: TelemetrySnapshot, link: LinkState) -> list:

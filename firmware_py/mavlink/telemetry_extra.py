@@ -12,7 +12,7 @@ import math
 import os
 
 from ..telemetry_snapshot import TelemetrySnapshot
-from .telemetry import EARTH_RADIUS_M, Builder, LinkState, ned_state, time_boot_ms
+from .telemetry import Builder, LinkState, lat_lon, ned_state, pose6, time_boot_ms
 from .vibration import G_MSS
 from .wire import ID, INT16_MAX, UINT16_MAX, clip_int, mavlink
 
@@ -35,9 +35,11 @@ def raw_imu(snap: TelemetrySnapshot, link: LinkState) -> list:
         return []
     ax, _ay, az = link.vibration.accel if link.vibration is not None else (0.0, 0.0, -G_MSS)
     q = snap.x_hat[5] if len(snap.x_hat) > 5 else 0.0
+    p, r = (snap.lateral[4], snap.lateral[5]) if snap.lateral else (0.0, 0.0)
     mg = lambda a: clip_int(1000.0 * a / G_MSS, -32768, INT16_MAX)   # noqa: E731
-    return [mavlink.MAVLink_raw_imu_message(_usec(snap), mg(ax), 0, mg(az), 0, clip_int(q * 1000.0, -32768, INT16_MAX),
-                                            0, 0, 0, 0, 0, ENCLOSURE_TEMPERATURE_CDEG)]
+    mrad = lambda w: clip_int(w * 1000.0, -32768, INT16_MAX)          # noqa: E731
+    return [mavlink.MAVLink_raw_imu_message(_usec(snap), mg(ax), 0, mg(az), mrad(p), mrad(q), mrad(r), 0, 0, 0, 0,
+                                            ENCLOSURE_TEMPERATURE_CDEG)]
 
 
 def scaled_pressure(snap: TelemetrySnapshot, link: LinkState) -> list:
@@ -77,23 +79,32 @@ def nav_controller_output(snap: TelemetrySnapshot, link: LinkState) -> list:
 
 
 def ahrs2(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """AHRS2: the secondary attitude/position solution; here the same estimate (roll and yaw 0)."""
+    """AHRS2: the secondary attitude/position solution; here the same estimate (roll and yaw 0 in a planar world)."""
     if not snap.has_tick:
         return []
-    x, z, th, _vx, _vz, _q = ned_state(snap)
-    lat = snap.origin_lat + math.degrees(x / EARTH_RADIUS_M) if math.isfinite(x) else snap.origin_lat
-    return [mavlink.MAVLink_ahrs2_message(0.0, th, 0.0, -z, clip_int(lat * 1e7, -900000000, 900000000),
-                                          clip_int(snap.origin_lon * 1e7, -1800000000, 1800000000))]
+    e = pose6(snap)
+    lat, lon = lat_lon(snap, e.x, e.y)
+    return [mavlink.MAVLink_ahrs2_message(e.roll, e.pitch, e.yaw, -e.z, clip_int(lat * 1e7, -900000000, 900000000),
+                                          clip_int(lon * 1e7, -1800000000, 1800000000))]
 
 
 def attitude_quaternion(snap: TelemetrySnapshot, link: LinkState) -> list:
-    """ATTITUDE_QUATERNION: the pitch-only attitude as a quaternion (w, x, y, z), pitch rate."""
+    """ATTITUDE_QUATERNION: the attitude as a quaternion (w, x, y, z) of its zyx Euler angles, and the body rates
+    (the pitch alone in a planar world)."""
     if not snap.has_tick:
         return []
-    _x, _z, th, _vx, _vz, q = ned_state(snap)
-    half = th / 2.0 if math.isfinite(th) else 0.0
-    return [mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(snap, link), math.cos(half), 0.0,
-                                                        math.sin(half), 0.0, 0.0, q, 0.0)]
+    e = pose6(snap)
+    if not snap.lateral:
+        half = e.pitch / 2.0 if math.isfinite(e.pitch) else 0.0
+        return [mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(snap, link), math.cos(half), 0.0,
+                                                            math.sin(half), 0.0, 0.0, e.q, 0.0)]
+    angles = [a if math.isfinite(a) else 0.0 for a in (e.roll, e.pitch, e.yaw)]
+    cr, sr = math.cos(angles[0] / 2.0), math.sin(angles[0] / 2.0)
+    cp, sp = math.cos(angles[1] / 2.0), math.sin(angles[1] / 2.0)
+    cy, sy = math.cos(angles[2] / 2.0), math.sin(angles[2] / 2.0)
+    qw, qx = cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy
+    qy, qz = cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy
+    return [mavlink.MAVLink_attitude_quaternion_message(time_boot_ms(snap, link), qw, qx, qy, qz, e.p, e.q, e.r)]
 
 
 def extended_sys_state(snap: TelemetrySnapshot, link: LinkState) -> list:

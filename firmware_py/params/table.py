@@ -34,6 +34,16 @@ def _axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: s
             for ax, name, u in zip("XZP", ("surge", "heave", "pitch"), units, strict=False)]
 
 
+LATERAL_AXES = ("Y", "R", "H")
+"""The suffixes of a lateral-directional parameter family: sway, roll, heading (yaw)."""
+
+
+def _lateral_axes(prefix: str, lo: float, hi: float, units: tuple[str, str, str], doc: str) -> list[ParamDef]:
+    """One parameter per lateral-directional DoF: _Y sway, _R roll, _H heading."""
+    return [ParamDef(f"{prefix}_{ax}", lo, hi, u, f"{doc} ({name})")
+            for ax, name, u in zip(LATERAL_AXES, ("sway", "roll", "heading"), units, strict=True)]
+
+
 PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     # Cascaded PD (paper Eq. 12): outer position loop → velocity demand, inner velocity loop → τ/τ_max
     *_axes("WK_PD_KP", 0.0, 20.0, ("1/s", "1/s", "1/s"), "position P gain: velocity demand per unit error"),
@@ -42,6 +52,15 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
            "velocity P gain: normalised effort per unit velocity error"),
     *_axes("WK_VEL_MAX", 0.01, 5.0, ("m/s", "m/s", "rad/s"), "velocity demand limit"),
     *_axes("WK_TAU_MAX", 0.1, 1000.0, ("N", "N", "N m"), "maximum control effort τ_max"),
+    # The lateral-directional plane (six-DoF world): the same cascade on sway, roll and heading
+    ParamDef("WK_LAT_HOLD", 0, 1, "", "hold sway, roll and heading too (1) when the sensors give them (a six-DoF "
+             "vehicle), or leave them to the vehicle (0)", ptype="INT8"),
+    *_lateral_axes("WK_PD_KP", 0.0, 20.0, ("1/s", "1/s", "1/s"), "position P gain: velocity demand per unit error"),
+    *_lateral_axes("WK_PD_KD", 0.0, 20.0, ("", "", ""), "position D gain: velocity demand per unit error rate"),
+    *_lateral_axes("WK_VEL_KP", 0.0, 20.0, ("s/m", "s/rad", "s/rad"),
+                   "velocity P gain: normalised effort per unit velocity error"),
+    *_lateral_axes("WK_VEL_MAX", 0.01, 5.0, ("m/s", "rad/s", "rad/s"), "velocity demand limit"),
+    *_lateral_axes("WK_TAU_MAX", 0.1, 1000.0, ("N", "N m", "N m"), "maximum control effort τ_max"),
     ParamDef("WK_G_COMP", 0, 1, "", "compensate the nominal restoring forces g(eta) (1) or not (0)", ptype="INT8"),
     ParamDef("WK_FF_ENABLE", 0, 1, "", "feed-forward wave compensation on (1) or off (0)", ptype="INT8"),
     ParamDef("WK_DOB_ENABLE", 0, 1, "", "disturbance-observer feedback of the EKF's disturbance estimate on (1) "
@@ -122,7 +141,12 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_R_POS", 1e-4, 10.0, "m", "position fix noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_DEPTH", 1e-4, 10.0, "m", "depth noise (1 sigma) the estimator assumes"),
     ParamDef("WK_EKF_R_PITCH", 1e-5, 1.0, "rad", "pitch noise (1 sigma) the estimator assumes"),
-    ParamDef("WK_EKF_R_GYRO", 1e-5, 1.0, "rad/s", "pitch-rate noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_R_GYRO", 1e-5, 1.0, "rad/s", "pitch-rate noise (1 sigma) the estimator assumes (and roll and "
+             "yaw rates')"),
+    ParamDef("WK_EKF_R_YAW", 1e-5, 1.0, "rad", "heading noise (1 sigma) the estimator assumes"),
+    ParamDef("WK_EKF_QL_VEL", 0.0, 100.0, "m/s^1.5", "lateral plane: process noise density on v (the sway force "
+             "the model does not predict)"),
+    ParamDef("WK_EKF_QL_RATE", 0.0, 100.0, "rad/s^1.5", "lateral plane: process noise density on p and r"),
     ParamDef("WK_EKF_MODE", 0, 1, "", "estimator: 0 the paper's (position, depth, pitch, gyro; 6 states), "
              "1 aided (+ DVL, accelerometer, 3 disturbance states); read at boot", ptype="INT8"),
     ParamDef("WK_EKF_Q_POS_A", 0.0, 10.0, "m/s^0.5", "aided mode: process noise density on x and z"),
@@ -180,8 +204,9 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("SIM_DVL_DROP", 0.0, 1.0, "", "DVL: probability a ping within range is lost"),
     ParamDef("SIM_WATER_DEPTH", 0.1, 11000.0, "m", "water depth at the site (the harness sets the sea's)"),
     ParamDef("SIM_ACC_RND", 0.0, 10.0, "m/s^2", "accelerometer specific-force noise (1 sigma) per sample"),
-    ParamDef("SIM_PITCH_RND", 0.0, 0.5, "rad", "AHRS pitch noise (1 sigma)"),
-    ParamDef("SIM_GYRO_RND", 0.0, 0.5, "rad/s", "gyro pitch-rate noise (1 sigma)"),
+    ParamDef("SIM_PITCH_RND", 0.0, 0.5, "rad", "AHRS pitch (and roll) noise (1 sigma)"),
+    ParamDef("SIM_GYRO_RND", 0.0, 0.5, "rad/s", "gyro rate noise (1 sigma), each axis"),
+    ParamDef("SIM_YAW_RND", 0.0, 0.5, "rad", "AHRS heading noise (1 sigma)"),
     ParamDef("SIM_BATT_CAP_AH", 0.1, 100.0, "Ah", "simulated battery: the 4S pack's real capacity"),
     ParamDef("SIM_BATT_SOC", 0.0, 100.0, "%", "simulated battery: state of charge at boot"),
     ParamDef("SIM_BATT_HOTEL", 0.0, 500.0, "W", "simulated battery: electronics, camera and lights load"),
@@ -281,6 +306,11 @@ class ParameterTable:
     def axes(self, prefix: str) -> tuple[float, float, float]:
         """The (surge, heave, pitch) triple of a per-DoF parameter family, e.g. ``axes("WK_PD_KP")``."""
         return (self._values[f"{prefix}_X"], self._values[f"{prefix}_Z"], self._values[f"{prefix}_P"])
+
+    def lateral_axes(self, prefix: str) -> tuple[float, float, float]:
+        """The (sway, roll, heading) triple of a lateral-directional family, e.g. ``lateral_axes("WK_PD_KP")``."""
+        v = self._values
+        return (v[f"{prefix}_Y"], v[f"{prefix}_R"], v[f"{prefix}_H"])
 
     def as_dict(self) -> dict[str, float]:
         return dict(self._values)

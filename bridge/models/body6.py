@@ -12,12 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bridge.models import kernels, kernels6
-from bridge.models.motion6 import rk4_step6, state_derivative6
-from bridge.models.rigid_body6 import RigidBody6Params
-from bridge.models.strip_load6 import BodyFlow6, body_flow6, hydrodynamic_load6, strip_grid
-from bridge.models.vehicle import strip_nodes
-from bridge.models.waves import WaveComponents
+from . import kernels, kernels6
+from .motion6 import rk4_step6, state_derivative6
+from .rigid_body6 import RigidBody6Params
+from .strip_load6 import BodyFlow6, body_flow6, hydrodynamic_load6, strip_grid
+from .vehicle import strip_nodes
+from .waves import WaveComponents
 
 __all__ = ["Body6", "Flow6"]
 
