@@ -32,6 +32,7 @@ try:    # orjson: exact shortest round-trip floats both ways, ~5x faster than js
 except ImportError:  # pragma: no cover - orjson is a dependency; json is the same wire format
     _orjson = None  # type: ignore[assignment]
 
+from bridge.models.motion6 import specific_force6
 from bridge.models.thrusters import NEUTRAL_PWM_US
 from bridge.models.vehicle import body_to_ned, ned_to_body
 
@@ -154,13 +155,12 @@ def state_message(t: float, eta: np.ndarray, nu: np.ndarray, nu_dot: np.ndarray,
     else:
         x, y, z, phi, theta, psi = _plain_floats(six[0])
         u, v, w, p, q, r = _plain_floats(six[1])
-        du, dv, dw = (float(c) for c in six[2][:3])
         sf, cf, st, ct, sp, cp = (math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta), math.sin(psi),
                                   math.cos(psi))
         vn = cp * ct * u + (cp * st * sf - sp * cf) * v + (sp * sf + cp * cf * st) * w
         ve = sp * ct * u + (cp * cf + sf * st * sp) * v + (st * sp * cf - cp * sf) * w
         vd = -st * u + ct * sf * v + ct * cf * w
-        accel = [du + q * w - r * v + g * st, dv + r * u - p * w - g * ct * sf, dw + p * v - q * u - g * ct * cf]
+        accel = specific_force6(six[0], six[1], six[2], g)
     msg: dict[str, Any] = {
         "timestamp": float(t),
         "imu": {

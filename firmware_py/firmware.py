@@ -152,8 +152,10 @@ class Firmware:
         in-process start predict the same way.
         """
         if self._pending is not None:
-            flow, _ = self.predicted_flow(self._pending.t)
-            self._pending = Prediction(self._pending.tau_stages, flow, self._pending.t)
+            t = self._pending.t
+            flow, _ = self.predicted_flow(t)
+            flow6 = self.lateral.flow(self.forecast.current(t) if flow is not None else None, self.ekf.x, t)
+            self._pending = replace(self._pending, flow=flow, flow6=flow6)
 
     def add_task(self, task: Task) -> None:
         """Add a task (GCS link, SITL world...) after the control task; only before the loop starts."""

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from bridge.models.body6 import Body6
-from bridge.models.motion6 import PLANAR_DOFS, to_lateral
+from bridge.models.motion6 import PLANAR_DOFS, specific_force6, to_lateral
 from bridge.models.thrusters import T200Curve, ThrusterLayout, motor_lag_factors, power_per_dof
 from bridge.models.vehicle import (
     VehicleParams,
@@ -346,6 +346,14 @@ class Plant:
             return None
         s = self.state
         return to_lateral(np.concatenate([s.eta6, s.nu6]))
+
+    def specific_force6(self) -> list[float] | None:
+        """The six-DoF world's accelerometer truth [f_x, f_y, f_z] (m/s², body FRD, :func:`specific_force6`, as the
+        JSON SITL state's ``imu.accel_body``); None when planar."""
+        if self.body6 is None:
+            return None
+        s = self.state
+        return specific_force6(s.eta6, s.nu6, self.nu_dot6, float(self.vehicle.g))
 
     def power_per_dof(self) -> np.ndarray:
         """Power (W) per DoF for the current thruster load, paper's T200 polynomial on |τ|."""

@@ -35,7 +35,9 @@ H = 1.0 / RATE
 
 @pytest.fixture(scope="module")
 def sea_w1():
-    return Sea.load("W1")
+    """W1 in the paper's plane: these tests check the wire format against the planar state's closed forms (a
+    six-DoF world's replies: tests/test_plant6.py and tests/test_six_dof_firmware.py)."""
+    return Sea.load("W1", overrides={"dof": "planar"})
 
 
 @pytest.fixture
@@ -232,9 +234,9 @@ def test_parse_state_without_wavekeep_fields(client):
 
 
 # ---------------------------------------------------------------------------- firmware over UDP
-def build_json_firmware(address, case="W1", controller="cpd_ff", timeout_s=None, speedup=None):
+def build_json_firmware(address, case="W1", controller="cpd_ff", timeout_s=None, speedup=None, sea_set=None):
     """sitl.harness.run.build_mission, with the JSON SITL HAL in place of the in-process one."""
-    sea = Sea.load(case)
+    sea = Sea.load(case, overrides=sea_set)
     mcfg, vcfg = load_mission_config("station_keeping"), load_vehicle_config("bluerov2_heavy")
     params = load_params().copy()
     params.set("WK_FF_ENABLE", 1 if controller == "cpd_ff" else 0)
@@ -259,23 +261,26 @@ def take_off(hal, fw, setpoint):
     assert result == 0, why
 
 
-@pytest.mark.parametrize("sea_set", [{}, {"depth_sensor.dynamic_pressure": True}], ids=["nominal", "bar30_dynamic"])
+@pytest.mark.parametrize("sea_set", [{}, {"depth_sensor.dynamic_pressure": True},
+                                     {"dof": "six", "spreading.direction": 45.0}],
+                         ids=["nominal", "bar30_dynamic", "six_dof_oblique"])
 def test_mission_over_json_sitl_is_identical_to_in_process(sea_set):
     """Lockstep over UDP equals the in-process mission, also when the depth sensor reads the waves'
-    dynamic pressure (sent in ``wavekeep.pressure_depth``)."""
+    dynamic pressure (sent in ``wavekeep.pressure_depth``), and in an oblique sea in six DoF, where the
+    firmware holds the lateral plane on ``wavekeep.lateral`` and the six-DoF accelerometer."""
     duration = 10.0
     ref = run_mission(RunSpec("W1", "cpd_ff", duration=duration, sea=sea_set)).timeseries
     sea = Sea.load("W1", overrides=sea_set)
     server = PhysicsServer(lambda: Plant.from_configs(sea), port=0)
     server.start()
     try:
-        _fly_and_compare(server, duration, ref)
+        _fly_and_compare(server, duration, ref, sea_set)
     finally:
         server.stop()
 
 
-def _fly_and_compare(server, duration, ref):
-    hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port))
+def _fly_and_compare(server, duration, ref, sea_set=None):
+    hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port), sea_set=sea_set)
     try:
         take_off(hal, fw, setpoint)
         n = int(round(duration * RATE)) - 1

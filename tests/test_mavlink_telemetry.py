@@ -143,21 +143,25 @@ def test_request_message_capabilities_and_timesync(v):
     gs.send(mavlink.MAVLink_timesync_message(5, 42))
     assert gs.wait_type("TIMESYNC", lambda m: m.ts1 == 42, timeout=1.0) is None
 
-def test_telemetry_packs_whatever_the_estimate_holds():
-    """NaN and huge values in the firmware's state become valid (clipped) messages, never an exception."""
+@pytest.mark.parametrize("dof", ["planar", "six"])
+def test_telemetry_packs_whatever_the_estimate_holds(dof):
+    """NaN and huge values in the firmware's state (in six DoF its lateral estimate's too) become valid (clipped)
+    messages, never an exception."""
     import dataclasses
 
     import numpy as np
 
     from sitl.harness.run import build_mission
     from sitl.harness.spec import RunSpec
-    m = build_mission(RunSpec("W1", "cpd"), params=load_params())
+    m = build_mission(RunSpec("W1", "cpd", sea={"dof": dof}), params=load_params())
     fw = m.firmware
     link = MavlinkLink(fw, [f"udpout:127.0.0.1:{free_port()}"])
     try:
         fw.scheduler.run_tick()
+        assert (fw.last.lateral is not None) == (dof == "six")
         for x_hat in (np.full(6, np.nan), np.full(6, np.inf), np.array([1e12, -1e12, 1e3, 1e9, -1e9, 1e9])):
-            fw.last = dataclasses.replace(fw.last, x_hat=x_hat, tau_e_hat=x_hat[:3])
+            lateral = None if fw.last.lateral is None else dataclasses.replace(fw.last.lateral, x_hat=x_hat)
+            fw.last = dataclasses.replace(fw.last, x_hat=x_hat, tau_e_hat=x_hat[:3], lateral=lateral)
             link.streams = Streams(fw.params)          # every stream due now
             link._outbox.clear()
             link.update(fw.scheduler.next_slot_ns())

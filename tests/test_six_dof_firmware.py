@@ -211,3 +211,20 @@ def test_mavlink_reports_the_vehicles_y_roll_and_yaw():
     finally:
         gs.close()
         sim.stop()
+
+
+def test_a_lateral_estimate_that_stops_being_finite_starts_again():
+    """A non-finite prediction (here a NaN thrust) restarts the lateral block from the next readings rather than
+    raise in the control task; the next full frame initialises it again."""
+    m = build_mission(RunSpec(case="W1", duration=5.0, sea=BEAM))
+    take_off(m)
+    fw = m.firmware
+    ekf = fw.lateral.ekf
+    assert ekf is not None and ekf.initialised
+    ekf.predict(fw.ekf.x, np.full((3, 6), np.nan), None)
+    assert not ekf.initialised and ekf.restarts == 1 and not fw.lateral.estimating
+    for _ in range(3):
+        fw.scheduler.run_tick()
+        m.hal.step_world()
+    assert ekf.initialised and np.isfinite(ekf.x).all()
+    assert fw.fault_counts()["estimator"] == 1

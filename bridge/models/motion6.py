@@ -16,13 +16,15 @@ the step (one batched evaluation serves the four stages).
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .rigid_body6 import RigidBody6Params, coriolis_matrix6, kinematics_J, restoring_forces6
 from .strip_load6 import BodyFlow6, hydrodynamic_load6
 
-__all__ = ["LATERAL_DOFS", "PLANAR_DOFS", "from_planar", "from_planes", "rk4_step6", "state_derivative6", "to_lateral",
-           "to_planar"]
+__all__ = ["LATERAL_DOFS", "PLANAR_DOFS", "from_planar", "from_planes", "rk4_step6", "specific_force6",
+           "state_derivative6", "to_lateral", "to_planar"]
 
 PLANAR_DOFS = (0, 2, 4)
 """Indices of (x, z, θ) in η and of (u, w, q) in ν: the planar model's degrees of freedom."""
@@ -84,3 +86,14 @@ def from_planes(x_planar, x_lateral) -> np.ndarray:
     x[_PLANAR_STATE] = np.asarray(x_planar, dtype=float)
     x[_LATERAL_STATE] = np.asarray(x_lateral, dtype=float)
     return x
+
+
+def specific_force6(eta, nu, nu_dot, g: float) -> list[float]:
+    """What a body-fixed accelerometer at the origin reads (m/s², body FRD): ν̇₁ + ω × ν₁ − Rᵀ(Θ) [0, 0, g],
+    for η (6,), ν (6,) and ν̇ (6,) (≈ [0, 0, −g] at rest). On Python floats: the JSON SITL state's
+    ``imu.accel_body`` and the in-process HAL's accelerometer are this one function."""
+    _x, _y, _z, phi, theta, _psi = (float(c) for c in eta)
+    u, v, w, p, q, r = (float(c) for c in nu)
+    du, dv, dw = (float(c) for c in nu_dot[:3])
+    sf, cf, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+    return [du + q * w - r * v + g * st, dv + r * u - p * w - g * ct * sf, dw + p * v - q * u - g * ct * cf]

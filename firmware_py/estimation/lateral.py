@@ -118,12 +118,16 @@ class LateralEKF:
         body, h = self.body, self.h
         x12 = from_planes(x_planar, self.x)
         tau6_stages = np.asarray(tau6_stages, dtype=float)
-        self.kf.x = to_lateral(body.rk4(x12, h, tau6_stages, flow)).reshape(6, 1)
+        x_next = to_lateral(body.rk4(x12, h, tau6_stages, flow))
         A = self._jacobian(x12, tau6_stages[0], flow)
         Ah = A * h
-        self.kf.F = np.eye(6) + Ah + 0.5 * Ah @ Ah
+        F = np.eye(6) + Ah + 0.5 * Ah @ Ah
+        if not (np.isfinite(x_next).all() and np.isfinite(F).all()):
+            self._restart()           # a pose the model cannot take (e.g. θ at ±90°): start again from readings
+            return
+        self.kf.x, self.kf.F = x_next.reshape(6, 1), F
         self.kf.Q = np.diag(self.params.derived(self._noise)[1 if flow is None else 2])
-        self.kf.P = self.kf.F @ self.kf.P @ self.kf.F.T + self.kf.Q
+        self.kf.P = F @ self.kf.P @ F.T + self.kf.Q
 
     def _jacobian(self, x12: np.ndarray, tau: np.ndarray, flow: Flow6 | None) -> np.ndarray:
         """A = ∂ẋ_L/∂x_L (6, 6) of the six-DoF model at x (12,) under τ (6,) in the flow's first instant."""
@@ -172,6 +176,8 @@ class LateralEKF:
                     self._reset(i, z[i], r[i], frame.t)
         self.last_nis = nis
         rows = [i for i in range(5) if accept[i]]
+        if not (np.isfinite(self.kf.x).all() and np.isfinite(self.kf.P).all()):
+            rows = []                 # nothing to fuse into a diverged estimate: restarted below
         if rows:
             zk = np.array([z[i] for i in rows]).reshape(-1, 1)
             Hk = _H[rows]
@@ -186,9 +192,14 @@ class LateralEKF:
             self.kf.update(zk, lambda _x: Hk, lambda xs: Hk @ xs, R=np.diag(r[rows]), residual=residual)
             self.kf.x[2, 0] = wrap_angle(float(self.kf.x[2, 0]))
         if not (np.isfinite(self.kf.x).all() and np.isfinite(self.kf.P).all()):
-            self.initialised = False          # start again from the next readings, as the vertical plane does
-            self.restarts += 1
+            self._restart()
         return np.array(accept)
+
+    def _restart(self) -> None:
+        """A diverged estimate is no estimate: start again from the next readings, as the vertical plane does
+        (the lateral hold is off meanwhile)."""
+        self.initialised = False
+        self.restarts += 1
 
     def _reset(self, i: int, value: float, noise_var: float, t: float) -> None:
         """Set the state channel i reads to ``value``, its covariance row and column cleared to the reading's noise."""

@@ -81,6 +81,9 @@ class InProcessSITLHAL(HAL):
         # in six DoF gives the lateral channels their truth
         lateral_of = getattr(self.plant, "lateral_state", None)
         lateral = lateral_of() if lateral_of is not None else None
+        if lateral is not None:      # the accelerometer of a vehicle that moves in six DoF: what JSON SITL sends
+            f = self.plant.specific_force6()  # type: ignore[attr-defined]
+            accel = np.array([f[0], f[2]])
         return self.sensors.read(s.t, s.eta, s.nu, accel, getattr(self.plant, "pressure_depth", None), lateral)
 
     def write_pwm(self, pwm: np.ndarray) -> None:

@@ -192,12 +192,19 @@ def pose6(snap: TelemetrySnapshot) -> Pose6:
         return Pose6(x, 0.0, z, 0.0, th, 0.0, vn, 0.0, vd, 0.0, q, 0.0)
     x, z, th, u, w, q = snap.x_hat[:6]
     y, phi, psi, v, p, r = snap.lateral[:6]
-    sf, cf, st, ct, sp, cp = (math.sin(phi), math.cos(phi), math.sin(th), math.cos(th), math.sin(psi),
-                              math.cos(psi))
+    sf, cf = _sin_cos(phi)
+    st, ct = _sin_cos(th)
+    sp, cp = _sin_cos(psi)
     vn = cp * ct * u + (cp * st * sf - sp * cf) * v + (sp * sf + cp * cf * st) * w
     ve = sp * ct * u + (cp * cf + sf * st * sp) * v + (st * sp * cf - cp * sf) * w
     vd = -st * u + ct * sf * v + ct * cf * w
     return Pose6(x, y, z, phi, th, psi, vn, ve, vd, p, q, r)
+
+
+def _sin_cos(a: float) -> tuple[float, float]:
+    """sin and cos of an angle (rad); NaN for a non-finite one (math's raise: a diverged estimate is reported, the
+    builders clip it)."""
+    return (math.sin(a), math.cos(a)) if math.isfinite(a) else (math.nan, math.nan)
 
 
 def heading_deg(yaw: float) -> float:
