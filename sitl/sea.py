@@ -40,8 +40,9 @@ from .sea_limits import max_hs
 
 DOF_CHOICES = ("auto", "planar", "six")
 """The sea config's ``dof``: the paper's plane, all six DoF, or ``auto``: the plane for a sea in it, six otherwise."""
-DEFAULT_DOF = "auto"
-"""What a sea config without ``dof`` flies (docs/models.md, *The six-DoF plant*, says why)."""
+DEFAULT_DOF = "six"
+"""What a sea config without ``dof`` flies: the six-DoF world; ``planar`` is the paper's named world (docs/models.md,
+*The six-DoF plant*, says why)."""
 WORLD_DOFS = ("planar", "six")
 """The worlds a plant flies (``auto`` resolved by :func:`resolve_dof`)."""
 

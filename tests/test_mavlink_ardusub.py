@@ -55,8 +55,12 @@ def test_ardusub_groups_stream_the_other_messages(v):
     ext = _request(v, mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, "EXTENDED_SYS_STATE")
     assert ext is not None and ext.landed_state == mavlink.MAV_LANDED_STATE_UNDEFINED
     q = _request(v, mavlink.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, "ATTITUDE_QUATERNION")
-    pitch = 2.0 * math.atan2(q.q3, q.q1)
-    assert abs(pitch - v.fw.ekf.x[2]) < 0.1 and q.q2 == 0.0 and q.q4 == 0.0
+    roll = math.atan2(2 * (q.q1 * q.q2 + q.q3 * q.q4), 1 - 2 * (q.q2 ** 2 + q.q3 ** 2))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (q.q1 * q.q3 - q.q4 * q.q2))))
+    yaw = math.atan2(2 * (q.q1 * q.q4 + q.q2 * q.q3), 1 - 2 * (q.q3 ** 2 + q.q4 ** 2))
+    assert abs(q.q1 ** 2 + q.q2 ** 2 + q.q3 ** 2 + q.q4 ** 2 - 1.0) < 1e-6       # a unit quaternion
+    lateral = v.fw.lateral.ekf.x                                # the six-DoF world: the estimate's roll and yaw
+    assert abs(pitch - v.fw.ekf.x[2]) < 0.1 and abs(roll - lateral[1]) < 0.05 and abs(yaw - lateral[2]) < 0.05
     assert v.gs.command(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL, mavlink.MAVLINK_MSG_ID_EXTENDED_SYS_STATE,
                         200_000).result == MAV_RESULT.ACCEPTED
     got = [m for m in v.gs.collect(1.5) if m.get_type() == "EXTENDED_SYS_STATE"]

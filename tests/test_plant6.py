@@ -143,15 +143,20 @@ def test_dof_and_direction_are_validated_on_load(tmp_path):
         load_sea_config("W3", {"dof": "five"})
     with pytest.raises(ConfigError, match=r"spreading\.direction.*180"):
         load_sea_config("W3", {"spreading.direction": 200.0})
-    assert load_sea_config("W3")["dof"] == "auto" and load_sea_config("W3", {"dof": "six"})["dof"] == "six"
+    assert load_sea_config("W3")["dof"] == "six" and load_sea_config("W3", {"dof": "auto"})["dof"] == "auto"
 
 
 @pytest.mark.parametrize("overrides, world", [({}, "planar"), ({"spreading.direction": 90.0}, "six"),
                                                ({"spreading.s": 10.0}, "six"), ({"current.speed": 0.2}, "planar"),
-                                               ({"current.speed": 0.2, "current.direction": 30.0}, "six"),
-                                               ({"dof": "six"}, "six"), ({"dof": "planar", "spreading.s": 10.0},
-                                                                         "planar")])
+                                               ({"current.speed": 0.2, "current.direction": 30.0}, "six")])
 def test_auto_is_the_plane_for_a_sea_in_it_and_six_dof_otherwise(overrides, world):
+    sea = Sea.load("W1", overrides={"dof": "auto", **overrides})
+    assert sea.dof == world and Plant.from_configs(sea).dof == world
+
+
+@pytest.mark.parametrize("overrides, world", [({}, "six"), ({"dof": "planar", "spreading.s": 10.0}, "planar"),
+                                               ({"dof": "planar"}, "planar")])
+def test_six_dof_is_the_default_and_planar_the_papers_named_world(overrides, world):
     sea = Sea.load("W1", overrides=overrides)
     assert sea.dof == world and Plant.from_configs(sea).dof == world
 

@@ -166,9 +166,10 @@ def test_the_lateral_estimate_is_consistent_with_a_forecast_in_its_model():
 
 
 def test_a_planar_world_never_builds_the_lateral_plane():
-    res = run_mission(RunSpec(case="W1", duration=5.0))
+    planar = {"dof": "planar"}
+    res = run_mission(RunSpec(case="W1", duration=5.0, sea=planar))
     assert np.isnan(res.timeseries[:, COLUMN["y_hat"]]).all() and np.isnan(res.timeseries[:, COLUMN["tau_N"]]).all()
-    m = build_mission(RunSpec(case="W1", duration=5.0))
+    m = build_mission(RunSpec(case="W1", duration=5.0, sea=planar))
     take_off(m)
     assert m.firmware.lateral.ekf is None and not m.firmware.lateral.estimating
 

@@ -94,7 +94,7 @@ class LateralEKF:
         r = np.array([p["WK_EKF_R_POS"], p["WK_EKF_R_PITCH"], p["WK_EKF_R_YAW"], p["WK_EKF_R_GYRO"],
                       p["WK_EKF_R_GYRO"]]) ** 2
         pose = [p["WK_EKF_Q_POS"], p["WK_EKF_Q_ANG"], p["WK_EKF_Q_ANG"]]
-        q_sea = np.array([*pose, p["WK_EKF_Q_VEL"], p["WK_EKF_Q_RATE"], p["WK_EKF_Q_RATE"]]) ** 2 * self.h
+        q_sea = np.array([*pose, p["WK_EKF_QL_VEL_S"], p["WK_EKF_QL_RATE_S"], p["WK_EKF_QL_RATE_S"]]) ** 2 * self.h
         q_model = np.array([*pose, p["WK_EKF_QL_VEL"], p["WK_EKF_QL_RATE"], p["WK_EKF_QL_RATE"]]) ** 2 * self.h
         return r, q_sea, q_model
 

@@ -147,6 +147,10 @@ PARAM_DEFS: tuple[ParamDef, ...] = tuple([
     ParamDef("WK_EKF_QL_VEL", 0.0, 100.0, "m/s^1.5", "lateral plane: process noise density on v (the sway force "
              "the model does not predict)"),
     ParamDef("WK_EKF_QL_RATE", 0.0, 100.0, "rad/s^1.5", "lateral plane: process noise density on p and r"),
+    ParamDef("WK_EKF_QL_VEL_S", 0.0, 100.0, "m/s^1.5", "lateral plane without a forecast in its model: process "
+             "noise density on v (the sea's whole sway force unpredicted)"),
+    ParamDef("WK_EKF_QL_RATE_S", 0.0, 100.0, "rad/s^1.5", "lateral plane without a forecast in its model: process "
+             "noise density on p and r"),
     ParamDef("WK_EKF_MODE", 0, 1, "", "estimator: 0 the paper's (position, depth, pitch, gyro; 6 states), "
              "1 aided (+ DVL, accelerometer, 3 disturbance states); read at boot", ptype="INT8"),
     ParamDef("WK_EKF_Q_POS_A", 0.0, 10.0, "m/s^0.5", "aided mode: process noise density on x and z"),
