@@ -310,7 +310,7 @@ def _fly_and_compare(server, duration, ref, sea_set=None):
 def test_paced_run_on_a_lockstep_paced_clock(server):
     """--speedup: the firmware paces on the wall clock; the grid starts at the hello's time (0)."""
     ticks = 20
-    ref = run_mission(RunSpec("W1", "cpd_ff", duration=ticks * H, sea={"dof": "planar"})).timeseries   # the server's world
+    ref = run_mission(RunSpec("W1", "cpd_ff", duration=ticks * H, sea={"dof": "planar"})).timeseries  # the server's
     hal, fw, setpoint = build_json_firmware(("127.0.0.1", server.port), speedup=5.0)
     try:
         hal.start()
