@@ -342,12 +342,13 @@ class Firmware:
         control = self.controller.update(ControlInput(
             t, t + delay * self.h, self.h, self.ekf.x, self._ahead(t), self.setpoint, ff,
             self.forecast.current(t) if ff_active else None, trusted, d_hat, self.mixer.wrench()))
-        # the lateral plane's feed-forward and prediction use the forecast when the vertical plane's do
+        # the lateral plane's feed-forward and prediction use the forecast when the vertical plane's do, and as
+        # far as its skill in heave goes (lateral_plane.weighted_flow6)
         active = self.forecast.current(t) if flow is not None else None
         lateral = self.lateral.control(self.ekf.x, float(self.setpoint[0]), active if ff_active else None,
-                                       t + delay * self.h)
+                                       t + delay * self.h, float(self.feedforward.skill_weight[1]))
         mix = self._mix(control, t, lateral)
-        self._output(mix, flow, t, self.lateral.flow(active, self.ekf.x, t))
+        self._output(mix, flow, t, self.lateral.flow(active, self.ekf.x, t, float(self.feedforward.skill_weight[1])))
         self.last = TickRecord(t, frame, self.ekf.x.copy(), self.ekf.sigma(), self.setpoint.copy(), control, mix,
                                ff.tau_e_hat, ff_active, seq, ff.weight, d_hat, self.ekf.nis_total,
                                control.target_offset, ff.skill, control.solve, lateral)

@@ -24,10 +24,26 @@ from .forecast.handoff import ActiveForecast
 from .hal.sensors import SensorFrame
 from .params.table import ParameterTable
 
-__all__ = ["LateralPlane", "LateralRecord"]
+__all__ = ["LateralPlane", "LateralRecord", "weighted_flow6"]
 
 STRIPS_ACROSS = 3
 """Gauss–Legendre strips across the beam of the nominal six-DoF body (as the six-DoF world's)."""
+
+
+def weighted_flow6(flow: Flow6, weight: float) -> Flow6:
+    """The flow's velocity and acceleration × ``weight`` (the same object at 1: a trusted forecast's flow is
+    used as it comes, to the bit).
+
+    The lateral plane has no skill measure of its own: its sway, roll and yaw loads come from the same wave
+    components whose surge, heave and pitch loads the feed-forward's skill weighs. The weight is the heave
+    axis's skill weight: a sea from any direction loads heave, where surge and pitch carry no load in a beam
+    sea (their skill there is the correlation of noise, near 0, whatever the forecast). Not the monitor's
+    weight: it fades heave for a few ticks now and then with an exact forecast too (13–26 % of ticks in W3),
+    and the sway hold lost a quarter of its gain to it. A −10 dB forecast flown at full weight sideways
+    rolled a head-sea vehicle past 70° while its vertical feed-forward had faded out; weighed, 3°."""
+    if weight >= 1.0:
+        return flow
+    return Flow6(flow.vel * weight, flow.acc * weight)
 
 
 @dataclass(frozen=True)
@@ -112,24 +128,27 @@ class LateralPlane:
         nu = np.array([xp[3], xl[3], xp[4], xl[4], xp[5], xl[5]])
         return eta, nu
 
-    def flow(self, active: ActiveForecast | None, x_planar: np.ndarray, t: float) -> Flow6 | None:
-        """The forecast's flow at the strips at t, t + h/2, t + h at the estimated pose (None without a forecast)."""
-        if active is None or self.body is None or not self.estimating:
+    def flow(self, active: ActiveForecast | None, x_planar: np.ndarray, t: float,
+             weight: float = 1.0) -> Flow6 | None:
+        """The forecast's flow at the strips at t, t + h/2, t + h at the estimated pose, scaled by ``weight``
+        (:func:`weighted_flow6`; None without a forecast, or at weight 0)."""
+        if active is None or self.body is None or not self.estimating or weight <= 0.0:
             return None
         eta, _ = self.pose(x_planar)
-        return self.body.flow(active.components, eta, t + self._offsets, np.zeros(3))
+        return weighted_flow6(self.body.flow(active.components, eta, t + self._offsets, np.zeros(3)), weight)
 
     def control(self, x_planar: np.ndarray, x_target: float, active: ActiveForecast | None,
-                t_ahead: float) -> LateralRecord | None:
+                t_ahead: float, weight: float = 1.0) -> LateralRecord | None:
         """This tick's hold (None while the plane is not estimated): the wrench [Y, K, N] and, with a forecast in
         use (``active``), its feed-forward: the predicted sway force and roll and yaw moments at the end of the
-        period that starts at ``t_ahead`` on the body moving with its estimated ν. ``x_target`` (m, north) is the
+        period that starts at ``t_ahead`` on the body moving with its estimated ν, in the forecast's flow scaled
+        by ``weight`` (in [0, 1]: the forecast's skill weight in heave). ``x_target`` (m, north) is the
         vertical plane's x target (the sway error is the horizontal one's body-frame part)."""
         if not self.estimating:
             return None
         assert self.ekf is not None and self.body is not None
         tau_wave = None
-        flow = self.flow(active, x_planar, t_ahead)
+        flow = self.flow(active, x_planar, t_ahead, weight)
         if flow is not None:
             _, nu = self.pose(x_planar)
             load = self.body.load(nu, flow, 2) - self.body.load(nu, None)
