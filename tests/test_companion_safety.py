@@ -193,6 +193,24 @@ def test_a_repeated_barometer_reading_is_no_new_depth():
     assert third.depth > first.depth
 
 
+def test_the_accelerometer_is_read_from_raw_imu_once_a_sample():
+    """RAW_IMU's accelerometer (mG, body FRD, gravity in it) is the aided estimator's specific force: [0, −g] at
+    rest, a sample once (a repeated message is no new measurement), none without the stream."""
+    link = RecordingLink()
+    link.attitude()
+    hal = _hal(link)
+    none = hal.read_sensors()
+    assert math.isnan(none.acc_x) and math.isnan(none.acc_z)
+    link.state.samples["RAW_IMU"] = Sample((0.0, 0.0, -1000.0), -1, time.monotonic(), 1)
+    rest = hal.read_sensors()
+    assert rest.acc_x == 0.0 and rest.acc_z == pytest.approx(-9.80665)
+    again = hal.read_sensors()
+    assert math.isnan(again.acc_x) and math.isnan(again.acc_z)
+    link.state.samples["RAW_IMU"] = Sample((102.0, 5.0, -950.0), -1, time.monotonic(), 2)
+    moving = hal.read_sensors()
+    assert moving.acc_x == pytest.approx(1.0002783) and moving.acc_z == pytest.approx(-9.3163175)
+
+
 def test_depth_noise_follows_the_barometer_read():
     link = RecordingLink(params={"SIM_BAR2_RND": 0.2})
     assert _depth_noise(argparse.Namespace(depth_noise="auto"), link) == pytest.approx(0.2 / math.sqrt(3))

@@ -28,7 +28,7 @@ from ..app import parse_set_arg
 
 __all__ = ["build_parser", "check_vehicle", "companion_overrides", "main", "run"]
 
-STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "HEARTBEAT")
+STREAMS = ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "RAW_IMU", "HEARTBEAT")
 
 
 def build_parser() -> argparse.ArgumentParser:

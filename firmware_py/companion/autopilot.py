@@ -97,7 +97,7 @@ class AutopilotLink:
         self.counters["rx"] += 1
         now = time.monotonic()
         st = self.state
-        if kind in ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "VFR_HUD"):
+        if kind in ("ATTITUDE", "SCALED_PRESSURE2", "LOCAL_POSITION_NED", "VFR_HUD", "RAW_IMU"):
             s = st.samples.setdefault(kind, Sample())
             s.values = _fields(m, kind)
             s.t_ms, s.arrived, s.count = int(getattr(m, "time_boot_ms", -1)), now, s.count + 1
@@ -225,4 +225,6 @@ def _fields(m, kind: str) -> tuple[float, ...]:
         return (float(m.press_abs),)
     if kind == "LOCAL_POSITION_NED":
         return (float(m.x), float(m.z), float(m.vx), float(m.vz))
+    if kind == "RAW_IMU":           # the accelerometer's specific force, mG, body FRD (ArduPilot scales it so)
+        return (float(m.xacc), float(m.yacc), float(m.zacc))
     return (float(m.alt),)        # VFR_HUD

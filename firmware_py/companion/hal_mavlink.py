@@ -10,6 +10,8 @@
   EKF; without one the message does not come (or repeats), the companion's EKF
   predicts x from its model alone, position-holding modes are refused and the
   companion holds depth and pitch (ALT_HOLD behaviour) rather than surge;
+* **specific force** [f_x, f_z] — RAW_IMU's accelerometer (mG, body FRD, gravity
+  included), a new sample only: the aided estimator's inertial channel (``WK_EKF_MODE`` 1);
 * ``write_pwm`` — :class:`~firmware_py.companion.commander.Commander.output`.
 
 Readings are stamped with the autopilot's clock (``time_boot_ms``). Two clocks
@@ -100,7 +102,7 @@ class AutopilotClock:
 
 
 class MAVLinkAutopilotHAL(HAL):
-    """Sensors from ATTITUDE / SCALED_PRESSURE2 / LOCAL_POSITION_NED; PWM out through the commander."""
+    """Sensors from ATTITUDE / SCALED_PRESSURE2 / LOCAL_POSITION_NED / RAW_IMU; PWM out through the commander."""
 
     def __init__(self, link: AutopilotLink, commander: Commander, clock, stale_s: float = 0.5,
                  surface_pa: float = ATM_PA, rho: float = RHO_SEAWATER):
@@ -110,6 +112,7 @@ class MAVLinkAutopilotHAL(HAL):
         self._pos_count = 0
         self._sp2_count = 0
         self._sp2_value = math.nan
+        self._imu_count = 0
 
     def depth(self) -> float:
         """A new depth reading, or NaN when there is none this tick. ArduSub reads its barometer at 10 Hz and
@@ -137,7 +140,19 @@ class MAVLinkAutopilotHAL(HAL):
         # healthy while a depth source streams (a tick between two 10 Hz readings has none of its own)
         source = self.link.fresh("SCALED_PRESSURE2", self.stale_s) or self.link.fresh("LOCAL_POSITION_NED",
                                                                                         self.stale_s)
-        return SensorFrame(t, x, depth, att.values[0], att.values[1], healthy=source is not None)
+        acc_x, acc_z = self.specific_force()
+        return SensorFrame(t, x, depth, att.values[0], att.values[1], acc_x=acc_x, acc_z=acc_z,
+                           healthy=source is not None)
+
+    def specific_force(self) -> tuple[float, float]:
+        """The autopilot's accelerometer [f_x, f_z] (m/s², body FRD, ≈ [0, −g] at rest) from its newest RAW_IMU,
+        a new sample only (NaN otherwise: a repeated sample is no new measurement); the aided estimator's
+        (``WK_EKF_MODE`` 1) inertial channel."""
+        imu = self.link.fresh("RAW_IMU", self.stale_s)
+        if imu is None or imu.count == self._imu_count:
+            return math.nan, math.nan
+        self._imu_count = imu.count
+        return imu.values[0] * G0 / 1000.0, imu.values[2] * G0 / 1000.0
 
     def write_pwm(self, pwm: np.ndarray) -> None:
         self.commander.output(pwm)
